@@ -1,0 +1,1 @@
+"""Camera and IMU drivers, installed as ``walkmon.drivers``. Importing this package probes no hardware."""

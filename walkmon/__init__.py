@@ -1,0 +1,46 @@
+"""walkmon: walking-posture monitoring from a chest-worn camera (and an optional IMU).
+
+Importing walkmon never touches hardware. Public names are listed once, here.
+"""
+
+from __future__ import annotations
+
+__version__ = "0.1.0"
+
+from walkmon.calibration import CameraModel, default_camera, read_camera_yaml, write_camera_yaml
+from walkmon.consts import (
+    AXES,
+    GRAVITY_MS2,
+    angles_deg_from_rotation,
+    gravity_angles_deg_from_gravity,
+    orientation_from_point_transform,
+    rotation_from_angles_deg,
+)
+from walkmon.errors import (
+    ConfigError,
+    InvalidInputError,
+    SourceDisconnected,
+    SourceError,
+    SourceTimeout,
+    WalkmonError,
+)
+
+__all__ = [
+    "AXES",
+    "GRAVITY_MS2",
+    "CameraModel",
+    "ConfigError",
+    "InvalidInputError",
+    "SourceDisconnected",
+    "SourceError",
+    "SourceTimeout",
+    "WalkmonError",
+    "__version__",
+    "angles_deg_from_rotation",
+    "default_camera",
+    "gravity_angles_deg_from_gravity",
+    "orientation_from_point_transform",
+    "read_camera_yaml",
+    "rotation_from_angles_deg",
+    "write_camera_yaml",
+]

@@ -1,0 +1,83 @@
+"""The ``walkmon`` command line: one entry point, one subcommand per module in :mod:`walkmon.commands`.
+
+Each command module defines ``NAME``, ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``. Errors
+walkmon raises on purpose (:class:`~walkmon.errors.WalkmonError`), unreadable files and bad options all end
+the same way: one line on stderr and exit code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+from types import ModuleType
+
+from walkmon import __version__
+from walkmon.errors import WalkmonError
+
+__all__ = ["main"]
+
+_log = logging.getLogger(__name__)
+
+#: Subcommand modules, in the order ``walkmon --help`` lists them.
+COMMAND_MODULES = (
+    "walkmon.commands.calibrate",
+)
+
+EXIT_USAGE = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line on stderr and exit code 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        sys.stderr.write(f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+        raise SystemExit(EXIT_USAGE)
+
+
+def _commands() -> list[ModuleType]:
+    return [importlib.import_module(name) for name in COMMAND_MODULES]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="walkmon", description="Walking-posture monitor from a chest-worn camera.")
+    parser.add_argument("--version", action="version", version=f"walkmon {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for module in _commands():
+        p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
+        module.add_arguments(p)
+        p.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(
+        level=(logging.WARNING, logging.INFO, logging.DEBUG)[min(args.verbose, 2)],
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    if not getattr(args, "_run", None):
+        parser.print_help(sys.stderr)
+        return EXIT_USAGE
+    try:
+        return int(args._run(args) or 0)
+    except WalkmonError as exc:
+        sys.stderr.write(f"walkmon {args.command}: error: {exc}\n")
+    except FileNotFoundError as exc:
+        sys.stderr.write(f"walkmon {args.command}: error: {exc.filename or exc}: no such file or directory\n")
+    except PermissionError as exc:
+        sys.stderr.write(f"walkmon {args.command}: error: {exc.filename or exc}: permission denied\n")
+    except OSError as exc:
+        sys.stderr.write(f"walkmon {args.command}: error: {exc}\n")
+    except KeyboardInterrupt:
+        sys.stderr.write(f"walkmon {args.command}: interrupted\n")
+        return 130
+    return EXIT_USAGE
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

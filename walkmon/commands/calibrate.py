@@ -1,0 +1,92 @@
+"""``walkmon calibrate``: camera intrinsics from chessboard views in a video or a folder of images."""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walkmon.errors import InvalidInputError
+
+NAME = "calibrate"
+HELP = "calibrate camera intrinsics from chessboard views (video file or image folder) into ROS camera_info YAML"
+
+_IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
+
+
+def _board(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
+    if not m:
+        msg = f"board must look like 9x6 (inner corners), got {text!r}"
+        raise argparse.ArgumentTypeError(msg)
+    return int(m.group(1)), int(m.group(2))
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("source", help="video file, or a folder of chessboard images")
+    p.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
+    p.add_argument("--square-mm", type=float, default=25.0, help="chessboard square size in mm (default 25)")
+    p.add_argument("--model", choices=("plumb_bob", "equidistant"), default="plumb_bob", help="distortion model")
+    p.add_argument("--every", type=int, default=10, help="use every Nth video frame (default 10)")
+    p.add_argument("--out", required=True, help="output camera_info YAML path")
+
+
+def _images(source: Path, every: int) -> Iterator[NDArray[np.uint8]]:
+    import cv2  # noqa: PLC0415
+
+    if source.is_dir():
+        files = sorted(f for f in source.iterdir() if f.suffix.lower() in _IMAGE_SUFFIXES)
+        if not files:
+            msg = f"{source}: no images ({', '.join(sorted(_IMAGE_SUFFIXES))}) in this folder"
+            raise InvalidInputError(msg)
+        for f in files:
+            img = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+            if img is None:
+                msg = f"{f}: cannot decode image"
+                raise InvalidInputError(msg)
+            yield img
+        return
+    if not source.exists():
+        msg = f"{source}: no such file or folder"
+        raise InvalidInputError(msg)
+    cap = cv2.VideoCapture(str(source))
+    if not cap.isOpened():
+        msg = f"{source}: cannot open as a video"
+        raise InvalidInputError(msg)
+    try:
+        i = 0
+        got_any = False
+        while True:
+            ok, frame = cap.read()
+            if not ok:
+                break
+            got_any = True
+            if i % max(every, 1) == 0:
+                yield cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+            i += 1
+        if not got_any:
+            msg = f"{source}: no decodable frames"
+            raise InvalidInputError(msg)
+    finally:
+        cap.release()
+
+
+def run(args: argparse.Namespace) -> int:
+    from walkmon.calibration import write_camera_yaml  # noqa: PLC0415
+    from walkmon.chessboard import calibrate_chessboard  # noqa: PLC0415
+
+    result = calibrate_chessboard(
+        _images(Path(args.source), args.every), args.board, args.square_mm, distortion_model=args.model
+    )
+    write_camera_yaml(result.camera, args.out)
+    cam = result.camera
+    sys.stdout.write(
+        f"calibrated from {result.n_views} of {result.n_images} views: fx={cam.fx:.1f} fy={cam.fy:.1f} "
+        f"cx={cam.cx:.1f} cy={cam.cy:.1f}, RMS reprojection error {result.rms_reprojection_px:.3f} px -> {args.out}\n"
+    )
+    return 0

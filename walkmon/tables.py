@@ -1,0 +1,113 @@
+"""Reading and writing the CSV tables walkmon exchanges (angles.csv, truth.csv, imu.csv, ...).
+
+A table is a header line of column names, then one row of numbers per sample. Reading validates: the file
+exists and is text, the required columns are present, every value is a finite number, there is at least one
+row and ``t`` never decreases. Every problem raises :class:`~walkmon.errors.InvalidInputError` with one line
+that names the file (and the row, where there is one).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from walkmon.errors import InvalidInputError
+
+__all__ = ["read_table", "write_table"]
+
+
+def read_table(
+    path: str | Path, required: Sequence[str], *, optional_numeric: bool = True
+) -> dict[str, NDArray[np.float64]]:
+    """Read a CSV table into ``{column: float array}``.
+
+    ``required`` columns must be present; other numeric columns are returned as well, and non-numeric extra
+    columns are skipped when ``optional_numeric`` is True (e.g. a ``model`` text column in angles.csv).
+    """
+    p = Path(path)
+    try:
+        with p.open(newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except FileNotFoundError:
+        msg = f"{p}: no such file"
+        raise InvalidInputError(msg) from None
+    except IsADirectoryError:
+        msg = f"{p}: is a directory, expected a CSV file"
+        raise InvalidInputError(msg) from None
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        msg = f"{p}: cannot read as CSV ({exc})"
+        raise InvalidInputError(msg) from None
+    rows = [r for r in rows if r and any(c.strip() for c in r)]
+    if not rows:
+        msg = f"{p}: empty file, expected a header with columns {','.join(required)}"
+        raise InvalidInputError(msg)
+    header = [c.strip() for c in rows[0]]
+    missing = [c for c in required if c not in header]
+    if missing:
+        msg = f"{p}: missing column(s) {','.join(missing)}; header is {','.join(header)}"
+        raise InvalidInputError(msg)
+    body = rows[1:]
+    if not body:
+        msg = f"{p}: no data rows"
+        raise InvalidInputError(msg)
+    columns: dict[str, list[float]] = {name: [] for name in header}
+    skipped: set[str] = set()
+    for line_no, row in enumerate(body, start=2):
+        if len(row) != len(header):
+            msg = f"{p}: line {line_no} has {len(row)} values, the header has {len(header)}"
+            raise InvalidInputError(msg)
+        for name, cell in zip(header, row, strict=True):
+            if name in skipped:
+                continue
+            try:
+                value = float(cell)
+            except ValueError:
+                if name in required or not optional_numeric:
+                    msg = f"{p}: line {line_no}, column {name}: {cell!r} is not a number"
+                    raise InvalidInputError(msg) from None
+                skipped.add(name)
+                continue
+            if not math.isfinite(value) and name in required:
+                msg = f"{p}: line {line_no}, column {name}: {cell!r} is not a finite number"
+                raise InvalidInputError(msg)
+            columns[name].append(value)
+    out = {name: np.asarray(vals, dtype=float) for name, vals in columns.items() if name not in skipped}
+    if "t" in out and np.any(np.diff(out["t"]) < 0):
+        bad = int(np.argmax(np.diff(out["t"]) < 0)) + 3
+        msg = f"{p}: column t decreases at line {bad}"
+        raise InvalidInputError(msg)
+    return out
+
+
+def write_table(
+    path: str | Path,
+    columns: Mapping[str, ArrayLike | Sequence[str]],
+    *,
+    precision: Mapping[str, int] | None = None,
+    default_precision: int = 6,
+) -> None:
+    """Write ``{column: values}`` as CSV; numbers get ``precision[column]`` decimals (default 6)."""
+    names = list(columns)
+    cols = [np.asarray(columns[n]) for n in names]
+    lengths = {len(c) for c in cols}
+    if len(lengths) > 1:
+        msg = f"columns differ in length: {dict(zip(names, (len(c) for c in cols), strict=True))}"
+        raise ValueError(msg)
+    precision = dict(precision or {})
+    formatted = []
+    for name, col in zip(names, cols, strict=True):
+        if col.dtype.kind in "fiub":
+            digits = precision.get(name, default_precision)
+            formatted.append([f"{v:.{digits}f}" for v in col.astype(float)])
+        else:
+            formatted.append([str(v) for v in col])
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    with Path(path).open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh, lineterminator="\n")
+        writer.writerow(names)
+        writer.writerows(zip(*formatted, strict=True))
