@@ -1,0 +1,56 @@
+"""The IMU sample every IMU driver and parser produces.
+
+Units are in the field names: seconds, rad/s, m/s², degrees. Accelerations are specific force (at rest with y
+pointing down a sensor reads ``ay = -9.81``), the convention of :mod:`walkmon.consts`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["ImuSample", "ParserStats"]
+
+Vector3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class ImuSample:
+    """One IMU reading in the sensor's own axes.
+
+    ``t_s``
+        Timestamp in seconds: the device clock where the protocol has one (CSV ``t`` column), otherwise the
+        host clock value the caller passed to ``feed`` with the bytes that completed the sample.
+    ``gyroscope_rad_s``
+        Body angular rate (x, y, z), rad/s; ``None`` for protocols without a gyroscope (BNO08x UART-RVC).
+    ``accelerometer_m_s2``
+        Specific force (x, y, z), m/s².
+    ``device_angles_deg``
+        Orientation angles computed on the device, in the device's own order and convention (WitMotion:
+        roll, pitch, yaw; BNO08x RVC: yaw, pitch, roll); ``None`` when the device does not send them.
+    ``index``
+        The device's frame counter where the protocol has one (BNO08x RVC, 0-255), else ``None``.
+    """
+
+    t_s: float
+    gyroscope_rad_s: Vector3 | None
+    accelerometer_m_s2: Vector3
+    device_angles_deg: Vector3 | None = None
+    index: int | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ParserStats:
+    """Counters a protocol parser keeps; a parser never raises on bad bytes, it counts them here."""
+
+    #: Packets (or lines) with a valid checksum / format.
+    good_packets: int = 0
+    #: Packets whose checksum did not match (the parser then resynchronises one byte further).
+    bad_checksums: int = 0
+    #: Bytes discarded while looking for a packet header (garbage, line noise, partial packets).
+    skipped_bytes: int = 0
+    #: Valid packets of a type walkmon does not use (e.g. WitMotion magnetometer), or CSV header lines.
+    ignored_packets: int = 0
+    #: Valid packets that could not be assembled into a sample (e.g. a rate packet with no acceleration).
+    incomplete_samples: int = 0
+    #: Samples produced.
+    samples: int = 0
