@@ -1,0 +1,192 @@
+"""The ``fast`` rotation method: KLT tracks against a keyframe, GRIC between rotation-only and essential models.
+
+Per frame: build the LK pyramid of the (downscaled) grey frame, track the previous frame's points, convert
+tracked positions to normalised coordinates (undistorted), fit the rotation-only model and the essential model
+(Gauss-Newton from the previous frame's estimate) against the keyframe's positions of the same tracks, choose
+with GRIC, drop outlier tracks, and start a new keyframe (re-detecting corners in the gaps) when tracks thin
+out, the rotation since the keyframe grows or the keyframe gets old. The orientation is the keyframe's
+orientation times the relative rotation, so error only accumulates once per keyframe, not once per frame.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from walkmon import geometry as geo
+from walkmon.calibration import CameraModel
+from walkmon.rotation import EstimateStatus, RotationEstimate, RotationSettings, make_estimate
+
+__all__ = ["FastEngine"]
+
+_log = logging.getLogger(__name__)
+
+#: A frame whose grey-level standard deviation is below this is treated as featureless (lens cap, black).
+_UNIFORM_STD = 2.0
+
+
+class FastEngine:
+    """State of the fast method for one camera size; see the module docstring."""
+
+    def __init__(self, camera: CameraModel, settings: RotationSettings) -> None:
+        self.camera = camera
+        self.s = settings
+        scale = settings.tracking_scale
+        self._track_size = (max(16, round(camera.width_px * scale)), max(16, round(camera.height_px * scale)))
+        self._sx = camera.width_px / self._track_size[0]
+        self._sy = camera.height_px / self._track_size[1]
+        self._focal = 0.5 * (camera.fx + camera.fy)
+        self._win = (settings.klt_window_px, settings.klt_levels)
+        self._criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
+        self._orientation = np.eye(3)
+        self._prev_small: NDArray[np.uint8] | None = None
+        self._prev_pyr = None
+        self._pts = np.zeros((0, 1, 2), np.float32)  # current track positions, tracking resolution
+        self._kf_q = np.zeros((0, 3))  # the tracks' normalised homogeneous coordinates in the keyframe
+        self._R_kf = np.eye(3)
+        self._R_rel = np.eye(3)
+        self._c_rel: NDArray[np.float64] | None = None
+        self._kf_tracks = 0
+        self._frames_since_kf = 0
+        self.started = False
+
+    # ----------------------------------------------------------------------------------------------------------
+    def _normalized(self, pts_small: NDArray[np.float32]) -> NDArray[np.float64]:
+        px = pts_small.reshape(-1, 2).astype(np.float64)
+        px[:, 0] = (px[:, 0] + 0.5) * self._sx - 0.5
+        px[:, 1] = (px[:, 1] + 0.5) * self._sy - 0.5
+        if self.camera.has_distortion:
+            xy = self.camera.normalized_from_pixels(px)
+        else:
+            xy = np.empty_like(px)
+            xy[:, 0] = (px[:, 0] - self.camera.cx) / self.camera.fx
+            xy[:, 1] = (px[:, 1] - self.camera.cy) / self.camera.fy
+        return geo.homogeneous_from_normalized(xy)
+
+    def _detect(self, small: NDArray[np.uint8], existing: NDArray[np.float32]) -> NDArray[np.float32]:
+        want = self.s.max_features - existing.shape[0]
+        if want <= 0:
+            return np.zeros((0, 1, 2), np.float32)
+        dist = max(2.0, self.s.min_feature_distance_px / self._sx)
+        mask = None
+        if existing.shape[0]:
+            mask = np.full(small.shape, 255, np.uint8)
+            for x, y in existing.reshape(-1, 2):
+                cv2.circle(mask, (int(x), int(y)), int(dist), 0, -1)
+        found = cv2.goodFeaturesToTrack(small, want, 0.01, dist, mask=mask, blockSize=5)
+        if found is None:
+            return np.zeros((0, 1, 2), np.float32)
+        return found.astype(np.float32).reshape(-1, 1, 2)
+
+    def _new_keyframe(self, small: NDArray[np.uint8]) -> None:
+        """Make the current frame the keyframe: its orientation is the current one; top up the corners."""
+        new = self._detect(small, self._pts)
+        self._pts = np.concatenate([self._pts, new]) if self._pts.shape[0] else new
+        self._kf_q = self._normalized(self._pts) if self._pts.shape[0] else np.zeros((0, 3))
+        self._R_kf = self._orientation.copy()
+        self._R_rel = np.eye(3)
+        self._c_rel = None
+        self._kf_tracks = self._pts.shape[0]
+        self._frames_since_kf = 0
+
+    def _hold(self, t_s: float, status: EstimateStatus, n_tracks: int = 0) -> RotationEstimate:
+        return make_estimate(t_s, self._orientation, n_inliers=0, model="hold", status=status, n_tracks=n_tracks)
+
+    # ----------------------------------------------------------------------------------------------------------
+    def push(self, grey: NDArray[np.uint8], t_s: float) -> RotationEstimate:
+        s = self.s
+        if self._track_size != (grey.shape[1], grey.shape[0]):
+            small = cv2.resize(grey, self._track_size, interpolation=cv2.INTER_AREA)
+        else:
+            small = grey
+        if float(small.std()) < _UNIFORM_STD:
+            # Lens cap / black frame: hold, and keep the last good frame as the one to track from.
+            self.started = True
+            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES)
+        if self._prev_small is not None and np.array_equal(small, self._prev_small):
+            return self._hold(t_s, EstimateStatus.REPEATED_FRAME, self._pts.shape[0])
+        # OpenCV's Python binding cannot take prebuilt pyramids (opencv#4777), so LK builds both each frame.
+        pyr = small
+
+        if self._prev_pyr is None:
+            first = not self.started
+            self.started = True
+            self._pts = np.zeros((0, 1, 2), np.float32)
+            self._new_keyframe(small)
+            if self._pts.shape[0] < s.min_inliers:
+                return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, self._pts.shape[0])
+            self._prev_pyr, self._prev_small = pyr, small
+            status = EstimateStatus.FIRST_FRAME if first else EstimateStatus.OK
+            return make_estimate(
+                t_s, self._orientation, n_inliers=self._pts.shape[0], model="identity" if first else "hold",
+                status=status, n_tracks=self._pts.shape[0], keyframe=True,
+            )
+
+        n_before = self._pts.shape[0]
+        if n_before:
+            nxt, st, _err = cv2.calcOpticalFlowPyrLK(
+                self._prev_pyr, pyr, self._pts, None, winSize=(s.klt_window_px, s.klt_window_px),
+                maxLevel=s.klt_levels, criteria=self._criteria,
+            )
+            w, h = self._track_size
+            ok = st.ravel().astype(bool)
+            p = nxt.reshape(-1, 2)
+            ok &= (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] <= w - 1) & (p[:, 1] <= h - 1)
+            self._pts, self._kf_q = nxt[ok], self._kf_q[ok]
+        self._prev_pyr, self._prev_small = pyr, small
+        n = self._pts.shape[0]
+        if n < s.min_inliers:
+            # Lost track (cap removed onto a new view, sudden blur): restart from here, holding orientation.
+            self._pts = np.zeros((0, 1, 2), np.float32)
+            self._new_keyframe(small)
+            est = self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, n)
+            return est
+
+        q_cur = self._normalized(self._pts)
+        q_kf = self._kf_q
+        sigma = s.feature_noise_px
+        rot = geo.rotation_only_fit(
+            q_kf, q_cur, self._focal, rotation_init=self._R_rel, scale_px=sigma * 2, inlier_px=s.inlier_px,
+            iterations=3,
+        )
+        model, R_rel, residuals, inliers = "rotation", rot.rotation, rot.residuals_px, rot.inliers
+        mask = rot.inliers
+        if float(np.median(rot.residuals_px)) > 0.5 * sigma and n >= max(8, s.min_inliers):
+            init = self._R_rel if self._c_rel is not None else rot.rotation
+            pose = geo.refine_relative_pose(
+                q_kf, q_cur, self._focal, init, self._c_rel, scale_px=sigma * 2, inlier_px=s.inlier_px,
+                iterations=4,
+            )
+            mask = pose.inliers | rot.inliers
+            g_rot = geo.gric(rot.residuals_px[mask], sigma, 2, 3)
+            g_ess = geo.gric(pose.residuals_px[mask], sigma, 3, 5)
+            if g_ess < g_rot:
+                model, R_rel, residuals, inliers = "essential", pose.rotation, np.abs(pose.residuals_px), pose.inliers
+                self._c_rel = pose.centre
+        n_inliers = int(np.count_nonzero(inliers))
+        orientation = self._R_kf @ R_rel
+        step_deg = geo.rotation_angle_deg(self._orientation.T @ orientation)
+        if n_inliers < s.min_inliers or step_deg > s.max_frame_rotation_deg:
+            self._pts = np.zeros((0, 1, 2), np.float32)
+            self._new_keyframe(small)
+            return self._hold(t_s, EstimateStatus.LOW_QUALITY, n)
+
+        self._orientation = orientation
+        self._R_rel = R_rel
+        self._pts, self._kf_q = self._pts[inliers], self._kf_q[inliers]
+        self._frames_since_kf += 1
+        rel_deg = geo.rotation_angle_deg(R_rel)
+        new_kf = (
+            self._pts.shape[0] < s.keyframe_min_track_fraction * self._kf_tracks
+            or self._frames_since_kf >= s.keyframe_max_frames
+            or rel_deg > s.keyframe_max_rotation_deg
+        )
+        if new_kf:
+            self._new_keyframe(small)
+        return make_estimate(
+            t_s, orientation, n_inliers=n_inliers, model=model, status=EstimateStatus.OK, n_tracks=n,
+            residual_px=float(np.median(residuals)), keyframe=new_kf,
+        )

@@ -1,0 +1,315 @@
+"""Two-view rotation geometry: pure functions on matched normalised image points, no state and no I/O.
+
+Conventions are those of :mod:`walkmon.consts`: ``R`` is the orientation of view 1 relative to view 0 (it maps
+view-1 directions into view 0) and ``c`` is the centre of view 1 in view 0's frame (unit length; the scale is
+unknown from images). A scene point ``X`` (view-0 frame) is seen along ``X`` in view 0 and along
+``R.T @ (X - c)`` in view 1, so ``q0``, ``R @ q1`` and ``c`` are coplanar: ``q0 . (c x R q1) = 0``, i.e.
+``q0.T @ E @ q1 = 0`` with ``E = [c]x R``. OpenCV's ``findEssentialMat(points0, points1)`` returns the point
+transform ``R_cv = R.T``; :func:`orientation_candidates_from_essential` converts.
+
+Why there are two models: between frames of a walk the camera moves a few centimetres, so parallax is tiny or
+zero (standing). The essential matrix is then ill-conditioned and OpenCV's cheirality vote picks decompositions
+~180 degrees off. :func:`rotation_only_fit` fits the rotation-only model (the infinite homography ``K R K^-1``);
+:func:`refine_relative_pose` fits the essential model starting from a nearby rotation, so it never leaves the
+small-rotation basin; :func:`gric` (Torr's Geometric Robust Information Criterion) says which model the data
+support.
+
+Residuals are returned in pixels: normalised-coordinate errors times ``focal_px``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from walkmon.consts import skew
+from walkmon.errors import InvalidInputError
+
+__all__ = [
+    "PoseFit",
+    "RotationFit",
+    "cauchy_weights",
+    "centre_from_rotation",
+    "essential_from_pose",
+    "essential_ransac",
+    "gric",
+    "homogeneous_from_normalized",
+    "orientation_candidates_from_essential",
+    "refine_relative_pose",
+    "rotation_angle_deg",
+    "rotation_from_bearings",
+    "rotation_from_rotvec",
+    "rotation_only_fit",
+    "rotation_only_residuals_px",
+    "sampson_residuals_px",
+    "select_nearest_rotation",
+]
+
+_log = logging.getLogger(__name__)
+
+
+def _check_points(q0: ArrayLike, q1: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    a = np.asarray(q0, dtype=float)
+    b = np.asarray(q1, dtype=float)
+    if a.ndim != 2 or a.shape[1] not in (2, 3) or a.shape != b.shape:
+        msg = f"matched points must both have shape (N, 2) or (N, 3), got {a.shape} and {b.shape}"
+        raise InvalidInputError(msg)
+    if a.shape[1] == 2:
+        a, b = homogeneous_from_normalized(a), homogeneous_from_normalized(b)
+    return a, b
+
+
+def homogeneous_from_normalized(xy: ArrayLike) -> NDArray[np.float64]:
+    """``(x, y) -> (x, y, 1)``; shape (N, 3)."""
+    p = np.asarray(xy, dtype=float).reshape(-1, 2)
+    return np.hstack([p, np.ones((p.shape[0], 1))])
+
+
+def rotation_from_rotvec(rotvec: ArrayLike) -> NDArray[np.float64]:
+    """Rodrigues: the rotation by ``|v|`` radians about ``v``."""
+    v = np.asarray(rotvec, dtype=float)
+    theta = math.sqrt(float(v @ v))
+    if theta < 1e-12:
+        return np.eye(3) + skew(v)
+    k = skew(v / theta)
+    return np.eye(3) + math.sin(theta) * k + (1.0 - math.cos(theta)) * (k @ k)
+
+
+def rotation_angle_deg(R: ArrayLike) -> float:
+    """Angle of the rotation ``R`` in degrees (0..180)."""
+    c = (float(np.trace(np.asarray(R, dtype=float))) - 1.0) / 2.0
+    return math.degrees(math.acos(min(1.0, max(-1.0, c))))
+
+
+def rotation_from_bearings(b0: ArrayLike, b1: ArrayLike, weights: ArrayLike | None = None) -> NDArray[np.float64]:
+    """Weighted least-squares rotation with ``b0 ~ R @ b1`` (Kabsch/Wahba, closed form via SVD).
+
+    ``b0``, ``b1`` are (N, 3) direction vectors (any length; they are normalised here).
+    """
+    a = np.asarray(b0, dtype=float)
+    b = np.asarray(b1, dtype=float)
+    a = a / np.linalg.norm(a, axis=1, keepdims=True)
+    b = b / np.linalg.norm(b, axis=1, keepdims=True)
+    w = np.ones(a.shape[0]) if weights is None else np.asarray(weights, dtype=float)
+    M = (a * w[:, None]).T @ b
+    U, _, Vt = np.linalg.svd(M)
+    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(U @ Vt)) or 1.0)])
+    return U @ D @ Vt
+
+
+def rotation_only_residuals_px(R: ArrayLike, q0: NDArray[np.float64], q1: NDArray[np.float64], focal_px: float):
+    """Transfer error of the rotation-only model: distance between ``q0`` and ``R q1`` projected, in pixels."""
+    p = q1 @ np.asarray(R, dtype=float).T
+    z = np.where(np.abs(p[:, 2]) < 1e-9, 1e-9, p[:, 2])
+    d = p[:, :2] / z[:, None] - q0[:, :2] / q0[:, 2:3]
+    return focal_px * np.sqrt(np.sum(d * d, axis=1))
+
+
+def cauchy_weights(residuals_px: NDArray[np.float64], scale_px: float) -> NDArray[np.float64]:
+    """IRLS weights of the Cauchy loss ``log(1 + (r/s)^2)``."""
+    return 1.0 / (1.0 + (residuals_px / scale_px) ** 2)
+
+
+@dataclass(frozen=True, slots=True)
+class RotationFit:
+    """Result of :func:`rotation_only_fit`: rotation, per-point residuals (px) and the inlier mask."""
+
+    rotation: NDArray[np.float64]
+    residuals_px: NDArray[np.float64]
+    inliers: NDArray[np.bool_]
+
+
+def rotation_only_fit(
+    q0: ArrayLike,
+    q1: ArrayLike,
+    focal_px: float,
+    *,
+    rotation_init: ArrayLike | None = None,
+    scale_px: float = 1.0,
+    inlier_px: float = 2.0,
+    iterations: int = 4,
+) -> RotationFit:
+    """Robust rotation-only model ``q0 ~ R q1`` by iteratively reweighted Kabsch (Cauchy loss).
+
+    Starting weights come from ``rotation_init`` when given (e.g. the previous frame's estimate), so a minority
+    of bad tracks cannot pull the first solve.
+    """
+    a, b = _check_points(q0, q1)
+    if a.shape[0] < 2:
+        msg = f"the rotation-only model needs at least 2 matches, got {a.shape[0]}"
+        raise InvalidInputError(msg)
+    if rotation_init is None:
+        w = np.ones(a.shape[0])
+    else:
+        w = cauchy_weights(rotation_only_residuals_px(rotation_init, a, b, focal_px), scale_px * 3.0)
+    R = np.eye(3)
+    for _ in range(max(1, iterations)):
+        R = rotation_from_bearings(a, b, w)
+        r = rotation_only_residuals_px(R, a, b, focal_px)
+        w = cauchy_weights(r, scale_px)
+    r = rotation_only_residuals_px(R, a, b, focal_px)
+    return RotationFit(R, r, r < inlier_px)
+
+
+def essential_from_pose(R: ArrayLike, c: ArrayLike) -> NDArray[np.float64]:
+    """``E = [c]x R`` so that ``q0.T E q1 = 0`` for matches (see the module docstring)."""
+    return skew(np.asarray(c, dtype=float)) @ np.asarray(R, dtype=float)
+
+
+def sampson_residuals_px(
+    E: ArrayLike, q0: NDArray[np.float64], q1: NDArray[np.float64], focal_px: float
+) -> NDArray[np.float64]:
+    """First-order geometric (Sampson) distance of each match to ``q0.T E q1 = 0``, in pixels (signed)."""
+    E = np.asarray(E, dtype=float)
+    Eq1 = q1 @ E.T
+    Etq0 = q0 @ E
+    e = np.sum(q0 * Eq1, axis=1)
+    den = Eq1[:, 0] ** 2 + Eq1[:, 1] ** 2 + Etq0[:, 0] ** 2 + Etq0[:, 1] ** 2
+    return focal_px * e / np.sqrt(np.maximum(den, 1e-30))
+
+
+def centre_from_rotation(q0: NDArray[np.float64], q1: NDArray[np.float64], R: ArrayLike, weights=None):
+    """Least-squares baseline direction for a known rotation: ``c`` minimising ``sum w (c . (q0 x R q1))^2``."""
+    A = np.cross(q0, q1 @ np.asarray(R, dtype=float).T)
+    if weights is not None:
+        A = A * np.sqrt(np.asarray(weights, dtype=float))[:, None]
+    _, _, Vt = np.linalg.svd(A, full_matrices=False)
+    return Vt[-1]
+
+
+def _tangent_basis(c: NDArray[np.float64]) -> NDArray[np.float64]:
+    helper = np.array([1.0, 0.0, 0.0]) if abs(c[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(c, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(c, u)
+    return np.stack([u, v], axis=1)
+
+
+@dataclass(frozen=True, slots=True)
+class PoseFit:
+    """Result of :func:`refine_relative_pose`: rotation, unit baseline direction, Sampson residuals (px), inliers."""
+
+    rotation: NDArray[np.float64]
+    centre: NDArray[np.float64]
+    residuals_px: NDArray[np.float64]
+    inliers: NDArray[np.bool_]
+
+
+def refine_relative_pose(
+    q0: ArrayLike,
+    q1: ArrayLike,
+    focal_px: float,
+    rotation_init: ArrayLike,
+    centre_init: ArrayLike | None = None,
+    *,
+    scale_px: float = 1.0,
+    inlier_px: float = 2.0,
+    iterations: int = 6,
+) -> PoseFit:
+    """Essential-model refinement of (R, c) by Gauss-Newton on Sampson errors with Cauchy IRLS weights.
+
+    Starts at ``rotation_init`` (and ``centre_init``, or the best baseline for that rotation) and takes small
+    steps, so the answer stays in the small-rotation basin: the twisted-pair decomposition (~180 degrees away)
+    is never reached. ``c`` and ``-c`` give the same errors; the sign is not meaningful.
+    """
+    a, b = _check_points(q0, q1)
+    if a.shape[0] < 5:
+        msg = f"the essential model needs at least 5 matches, got {a.shape[0]}"
+        raise InvalidInputError(msg)
+    R = np.array(rotation_init, dtype=float)
+    w = np.ones(a.shape[0])
+    if centre_init is None:
+        w = cauchy_weights(rotation_only_residuals_px(R, a, b, focal_px), 3.0 * scale_px + 1.0)
+        c = centre_from_rotation(a, b, R, w)
+    else:
+        c = np.asarray(centre_init, dtype=float)
+        c = c / np.linalg.norm(c)
+        w = cauchy_weights(sampson_residuals_px(essential_from_pose(R, c), a, b, focal_px), scale_px)
+    for _ in range(max(1, iterations)):
+        u = b @ R.T
+        Eu = np.cross(c, u)  # (E q1) = c x R q1
+        e = np.sum(a * Eu, axis=1)  # algebraic error q0 . (c x R q1)
+        Etq0 = np.cross(a, c) @ R  # E.T q0 = R.T [c]x.T q0 = R.T (q0 x c)
+        den = np.sqrt(np.maximum(Eu[:, 0] ** 2 + Eu[:, 1] ** 2 + Etq0[:, 0] ** 2 + Etq0[:, 1] ** 2, 1e-30))
+        # d e / d phi for R <- exp([phi]x) R:  q0 . (c x (phi x u)) = phi . (u x (c x q0)) ... written via cross
+        J_phi = np.cross(u, np.cross(c, a))
+        J_phi = -J_phi  # sign of d/dphi of a.(c x (phi x u)) = (a x c).(phi x u) = phi.(u x (a x c))
+        B = _tangent_basis(c)
+        J_c = np.cross(u, a) @ B  # d/dc of a.(c x u) = c.(u x a)
+        J = np.hstack([J_phi, J_c]) / den[:, None]
+        r = e / den
+        w = cauchy_weights(focal_px * r, scale_px)
+        JW = J * w[:, None]
+        H = JW.T @ J + 1e-9 * np.eye(5)
+        g = JW.T @ r
+        try:
+            step = -np.linalg.solve(H, g)
+        except np.linalg.LinAlgError:
+            break
+        R = rotation_from_rotvec(step[:3]) @ R
+        c = c + B @ step[3:]
+        c = c / np.linalg.norm(c)
+        if float(step @ step) < 1e-16:
+            break
+    res = sampson_residuals_px(essential_from_pose(R, c), a, b, focal_px)
+    return PoseFit(R, c, res, np.abs(res) < inlier_px)
+
+
+def gric(residuals_px: ArrayLike, sigma_px: float, model_dim: int, n_params: int, data_dim: int = 4) -> float:
+    """Torr's Geometric Robust Information Criterion (lower is better).
+
+    ``GRIC = sum(min(e^2/sigma^2, 2 (r - d))) + ln(r) d n + ln(r n) k`` with ``r`` the data dimension (4 for
+    two-view matches), ``d`` the model's manifold dimension (2 for a homography/rotation, 3 for the essential
+    matrix) and ``k`` its number of parameters (3 for a rotation, 5 for an essential matrix).
+    """
+    e2 = (np.asarray(residuals_px, dtype=float) / sigma_px) ** 2
+    n = e2.size
+    rho = np.minimum(e2, 2.0 * (data_dim - model_dim))
+    return float(np.sum(rho) + math.log(data_dim) * model_dim * n + math.log(data_dim * max(n, 1)) * n_params)
+
+
+def orientation_candidates_from_essential(E_cv: ArrayLike) -> list[NDArray[np.float64]]:
+    """The two orientations (``R = R_cv.T``) an OpenCV essential matrix decomposes into."""
+    import cv2  # noqa: PLC0415
+
+    R1, R2, _ = cv2.decomposeEssentialMat(np.asarray(E_cv, dtype=float))
+    return [R1.T.copy(), R2.T.copy()]
+
+
+def select_nearest_rotation(candidates: list[NDArray[np.float64]], prior: ArrayLike) -> NDArray[np.float64]:
+    """The candidate rotation closest (in angle) to ``prior``: small inter-frame rotation, never a flip."""
+    P = np.asarray(prior, dtype=float)
+    return min(candidates, key=lambda R: rotation_angle_deg(P.T @ R))
+
+
+def essential_ransac(
+    q0: ArrayLike,
+    q1: ArrayLike,
+    focal_px: float,
+    *,
+    threshold_px: float = 1.0,
+    confidence: float = 0.999,
+    method: str = "ransac",
+) -> tuple[NDArray[np.float64] | None, NDArray[np.bool_]]:
+    """5-point essential matrix with RANSAC (``method="ransac"``) or USAC MAGSAC++ (``"magsac"``).
+
+    Returns OpenCV's ``E_cv`` (``q1.T E_cv q0 = 0``; the first 3x3 solution when OpenCV returns several) and
+    the inlier mask, or ``(None, all False)`` when it fails.
+    """
+    import cv2  # noqa: PLC0415
+
+    a, b = _check_points(q0, q1)
+    n = a.shape[0]
+    if n < 5:
+        return None, np.zeros(n, dtype=bool)
+    p0 = np.ascontiguousarray(a[:, :2] / a[:, 2:3])
+    p1 = np.ascontiguousarray(b[:, :2] / b[:, 2:3])
+    flag = cv2.USAC_MAGSAC if method == "magsac" else cv2.RANSAC
+    E, mask = cv2.findEssentialMat(p0, p1, np.eye(3), method=flag, prob=confidence, threshold=threshold_px / focal_px)
+    if E is None or E.shape[0] < 3:
+        return None, np.zeros(n, dtype=bool)
+    return E[:3].copy(), (mask.ravel() > 0) if mask is not None else np.ones(n, dtype=bool)

@@ -1,0 +1,244 @@
+"""Camera rotation from video, one frame in, one estimate out: the stage the offline and live pipelines share.
+
+``RotationEstimator(camera, settings).push(frame, t_s) -> RotationEstimate`` gives the orientation of the
+camera at ``t_s`` relative to the first frame (conventions of :mod:`walkmon.consts`). Two methods:
+
+``fast`` (default)
+    Corners tracked with pyramidal Lucas-Kanade at reduced resolution, re-detected only when tracks thin out.
+    Every frame is compared with the current *keyframe* (not only the previous frame), so per-frame errors do
+    not pile up; keyframes are chained. For each frame both a rotation-only model and an essential-matrix model
+    (refined from the previous estimate, so it never flips to the ~180 degree twisted pair) are fitted and
+    GRIC picks the one the data support: rotation-only while standing or at short baselines, essential when
+    the walker's translation shows as parallax. See :mod:`walkmon.geometry`.
+
+``paper``
+    The reference paper's pipeline as written (AKAZE, LK to find the matching area, FLANN, 5-point RANSAC,
+    bundle adjustment, chained frame to frame); see :mod:`walkmon.paper_method`.
+
+Degenerate input (black or uniform frames, a repeated frame, too few features, a lens cap) never raises and
+never jumps: the estimate holds the last orientation and says why in ``status``.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walkmon.calibration import CameraModel
+from walkmon.consts import angles_deg_from_rotation
+from walkmon.errors import ConfigError, InvalidInputError
+
+__all__ = [
+    "DEFAULT_ROTATION_SETTINGS",
+    "METHODS",
+    "EstimateStatus",
+    "RotationEstimate",
+    "RotationEstimator",
+    "RotationSettings",
+    "grey_from_frame",
+]
+
+_log = logging.getLogger(__name__)
+
+#: The estimation methods :class:`RotationEstimator` offers.
+METHODS = ("fast", "paper")
+
+
+class EstimateStatus(enum.Enum):
+    """How much to trust one :class:`RotationEstimate`."""
+
+    #: A model was fitted with enough inliers.
+    OK = "ok"
+    #: The first frame (or the first after ``reset()``): identity by definition.
+    FIRST_FRAME = "first_frame"
+    #: Uniform/black frame or fewer matches than the minimum: the last orientation is held.
+    TOO_FEW_FEATURES = "too_few_features"
+    #: The frame is identical to the previous one: the last orientation is held.
+    REPEATED_FRAME = "repeated_frame"
+    #: A fit was made but failed its checks (few inliers, implausible jump): the last orientation is held.
+    LOW_QUALITY = "low_quality"
+
+    @property
+    def is_measured(self) -> bool:
+        """True when the rotation comes from the frame (not held)."""
+        return self in (EstimateStatus.OK, EstimateStatus.FIRST_FRAME)
+
+
+@dataclass(frozen=True, slots=True)
+class RotationSettings:
+    """Settings of :class:`RotationEstimator`; every length in pixels is at the video's full resolution.
+
+    fast method
+        ``tracking_scale``: track at this fraction of the input resolution (1.0 = full; 0.5 halves width and
+        height, about 3x cheaper, see benchmarks/results/rotation.md). ``max_features``: corners per keyframe.
+        ``min_feature_distance_px``: spacing of detected corners. ``klt_window_px``/``klt_levels``: Lucas-Kanade
+        window (at tracking resolution) and pyramid levels. ``keyframe_max_frames``,
+        ``keyframe_min_track_fraction``, ``keyframe_max_rotation_deg``: start a new keyframe when any is
+        exceeded. ``feature_noise_px``: tracking noise assumed by the GRIC model selection.
+    both methods
+        ``min_inliers``: fewer inliers than this holds the orientation. ``inlier_px``: inlier threshold.
+        ``max_frame_rotation_deg``: a frame-to-frame change larger than this is rejected as implausible for a
+        chest-worn camera (held, LOW_QUALITY).
+    paper method
+        ``akaze_threshold``: AKAZE detector response threshold. ``match_radius_px``: a FLANN match must land
+        this close to where LK tracked the point. ``ratio_test``: Lowe's ratio. ``ransac_threshold_px``: 5-point
+        RANSAC threshold. ``bundle_adjust``: refine each pair by two-view bundle adjustment. ``max_ba_points``:
+        points used by that adjustment.
+    """
+
+    method: str = "fast"
+    tracking_scale: float = 0.5
+    max_features: int = 160
+    min_feature_distance_px: float = 16.0
+    klt_window_px: int = 11
+    klt_levels: int = 3
+    keyframe_max_frames: int = 30
+    keyframe_min_track_fraction: float = 0.6
+    keyframe_max_rotation_deg: float = 8.0
+    feature_noise_px: float = 0.5
+    min_inliers: int = 12
+    inlier_px: float = 2.0
+    max_frame_rotation_deg: float = 15.0
+    akaze_threshold: float = 0.001
+    match_radius_px: float = 25.0
+    ratio_test: float = 0.8
+    ransac_threshold_px: float = 1.0
+    bundle_adjust: bool = True
+    max_ba_points: int = 150
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            msg = f"rotation method must be one of {', '.join(METHODS)}, got {self.method!r}"
+            raise ConfigError(msg)
+        checks = {
+            "tracking_scale": 0.1 <= self.tracking_scale <= 1.0,
+            "max_features": self.max_features >= 10,
+            "min_feature_distance_px": self.min_feature_distance_px > 0,
+            "klt_window_px": self.klt_window_px >= 3,
+            "klt_levels": 0 <= self.klt_levels <= 6,
+            "keyframe_max_frames": self.keyframe_max_frames >= 1,
+            "keyframe_min_track_fraction": 0.0 < self.keyframe_min_track_fraction <= 1.0,
+            "keyframe_max_rotation_deg": self.keyframe_max_rotation_deg > 0,
+            "feature_noise_px": self.feature_noise_px > 0,
+            "min_inliers": self.min_inliers >= 5,
+            "inlier_px": self.inlier_px > 0,
+            "max_frame_rotation_deg": self.max_frame_rotation_deg > 0,
+            "akaze_threshold": self.akaze_threshold > 0,
+            "match_radius_px": self.match_radius_px > 0,
+            "ratio_test": 0.0 < self.ratio_test <= 1.0,
+            "ransac_threshold_px": self.ransac_threshold_px > 0,
+            "max_ba_points": self.max_ba_points >= 5,
+        }
+        bad = [name for name, ok in checks.items() if not ok]
+        if bad:
+            msg = "invalid rotation setting(s): " + ", ".join(f"{b}={getattr(self, b)!r}" for b in bad)
+            raise ConfigError(msg)
+
+
+DEFAULT_ROTATION_SETTINGS = RotationSettings()
+
+
+@dataclass(frozen=True, slots=True)
+class RotationEstimate:
+    """The camera orientation at ``t_s`` relative to the first frame.
+
+    ``rotation`` maps this frame's directions into the first frame's; ``angles_deg`` is (pitch, yaw, roll).
+    ``model`` is ``"rotation"`` (rotation-only/homography), ``"essential"``, ``"hold"`` (orientation held,
+    see ``status``) or ``"identity"`` (first frame). ``n_inliers`` counts matches that agree with the model,
+    ``n_tracks`` the matches tried, ``residual_px`` their median error, ``keyframe`` whether this frame became
+    a keyframe.
+    """
+
+    t_s: float
+    rotation: NDArray[np.float64]
+    angles_deg: NDArray[np.float64]
+    n_inliers: int
+    model: str
+    status: EstimateStatus
+    n_tracks: int = 0
+    residual_px: float = math.nan
+    keyframe: bool = False
+
+    def __post_init__(self) -> None:
+        R = np.array(self.rotation, dtype=float)
+        a = np.array(self.angles_deg, dtype=float)
+        R.setflags(write=False)
+        a.setflags(write=False)
+        object.__setattr__(self, "rotation", R)
+        object.__setattr__(self, "angles_deg", a)
+
+
+def grey_from_frame(frame: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """An 8-bit grey image from a BGR, BGRA or grey frame; InvalidInputError for anything else."""
+    import cv2  # noqa: PLC0415
+
+    f = np.asarray(frame)
+    if f.dtype != np.uint8:
+        msg = f"frame must be uint8, got {f.dtype}"
+        raise InvalidInputError(msg)
+    if f.ndim == 2:
+        return f
+    if f.ndim == 3 and f.shape[2] == 1:
+        return f[:, :, 0]
+    if f.ndim == 3 and f.shape[2] == 3:
+        return cv2.cvtColor(f, cv2.COLOR_BGR2GRAY)
+    if f.ndim == 3 and f.shape[2] == 4:
+        return cv2.cvtColor(f, cv2.COLOR_BGRA2GRAY)
+    msg = f"frame must have shape (H, W), (H, W, 3) or (H, W, 4), got {f.shape}"
+    raise InvalidInputError(msg)
+
+
+def make_estimate(t_s: float, rotation: NDArray[np.float64], **kwargs: object) -> RotationEstimate:
+    """A :class:`RotationEstimate` with its angles computed from ``rotation``."""
+    return RotationEstimate(t_s=float(t_s), rotation=rotation, angles_deg=angles_deg_from_rotation(rotation), **kwargs)
+
+
+class RotationEstimator:
+    """Incremental camera-rotation estimator: ``push(frame, t_s) -> RotationEstimate``, ``reset()``.
+
+    ``camera`` gives the intrinsics; frames of another size are handled by scaling the camera (same lens).
+    No threads, no I/O, no clock reads.
+    """
+
+    def __init__(self, camera: CameraModel, settings: RotationSettings = DEFAULT_ROTATION_SETTINGS) -> None:
+        if not isinstance(camera, CameraModel):
+            msg = f"camera must be a CameraModel, got {type(camera).__name__}"
+            raise ConfigError(msg)
+        if not isinstance(settings, RotationSettings):
+            msg = f"settings must be RotationSettings, got {type(settings).__name__}"
+            raise ConfigError(msg)
+        self.camera = camera
+        self.settings = settings
+        self._engine = self._make_engine(camera)
+
+    def _make_engine(self, camera: CameraModel):  # noqa: ANN202
+        if self.settings.method == "paper":
+            from walkmon.paper_method import PaperEngine  # noqa: PLC0415
+
+            return PaperEngine(camera, self.settings)
+        from walkmon._rotation_fast import FastEngine  # noqa: PLC0415
+
+        return FastEngine(camera, self.settings)
+
+    def push(self, frame: NDArray[np.uint8], t_s: float) -> RotationEstimate:
+        """Estimate the orientation at ``t_s`` from ``frame`` (BGR or grey uint8)."""
+        grey = grey_from_frame(frame)
+        h, w = grey.shape
+        if (w, h) != (self._engine.camera.width_px, self._engine.camera.height_px):
+            if self._engine.started:
+                msg = (
+                    f"frame size changed mid-stream to {w}x{h} from "
+                    f"{self._engine.camera.width_px}x{self._engine.camera.height_px}"
+                )
+                raise InvalidInputError(msg)
+            self._engine = self._make_engine(self.camera.scaled_to(w, h))
+        return self._engine.push(grey, float(t_s))
+
+    def reset(self) -> None:
+        """Forget everything: the next frame becomes the new reference (identity)."""
+        self._engine = self._make_engine(self.camera)
