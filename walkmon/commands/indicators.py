@@ -1,0 +1,102 @@
+"""``walkmon indicators``: gait indicators, classification and report from an angles CSV (t,pitch,yaw,roll)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from walkmon.consts import ANGLE_COLUMNS
+
+NAME = "indicators"
+HELP = "gait indicators, walk classification and report.html from an angles CSV (t,pitch,yaw,roll; truth.csv works)"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("angles", help="CSV with columns t,pitch,yaw,roll in degrees (extra columns are ignored)")
+    p.add_argument("--out", required=True, help="output folder for indicators.json and report.html")
+    add_gait_arguments(p)
+
+
+def add_gait_arguments(p: argparse.ArgumentParser) -> None:
+    """The options ``walkmon analyze`` shares with ``walkmon indicators``."""
+    p.add_argument(
+        "--baseline",
+        metavar="INDICATORS_JSON",
+        help="indicators.json of the same person's normal walk: classify relative to it",
+    )
+    p.add_argument(
+        "--mode",
+        choices=("walkmon", "paper"),
+        default="walkmon",
+        help="walkmon: standing-referenced, drift-corrected (default); paper: exactly the paper's processing",
+    )
+
+
+def gait_outputs(
+    out_dir: str | Path,
+    t_s: np.ndarray,
+    angles_deg: np.ndarray,
+    *,
+    baseline_path: str | Path | None = None,
+    mode: str = "walkmon",
+    meta: Mapping[str, Any] | None = None,
+) -> tuple[Path, Path, Any]:
+    """Write ``out_dir/indicators.json`` and ``out_dir/report.html``; returns their paths and the Indicators.
+
+    The one function ``walkmon analyze`` and ``walkmon indicators`` share (and ``walkmon demo`` may call).
+    """
+    from walkmon.indicators import IndicatorSettings, compute_indicators, read_indicators, write_indicators  # noqa: PLC0415
+    from walkmon.report import write_report  # noqa: PLC0415
+
+    settings = IndicatorSettings(mode=mode)
+    baseline = read_indicators(baseline_path) if baseline_path else None
+    indicators = compute_indicators(t_s, angles_deg, settings, baseline)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    json_path = out / "indicators.json"
+    write_indicators(json_path, indicators)
+    meta = dict(meta or {})
+    if baseline_path:
+        meta.setdefault("baseline", str(baseline_path))
+    html_path = write_report(out / "report.html", t_s, angles_deg, indicators, baseline, meta, settings=settings)
+    return json_path, html_path, indicators
+
+
+def _meta_beside(path: Path) -> dict[str, Any]:
+    """Session metadata for the report: the input's name, plus a simulator's meta.json next to it if any."""
+    meta: dict[str, Any] = {"input": str(path)}
+    side = path.parent / "meta.json"
+    if side.is_file():
+        try:
+            doc = json.loads(side.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return meta
+        if isinstance(doc, dict):
+            for key, value in doc.items():
+                if isinstance(value, str | int | float | bool):
+                    meta[f"meta.json {key}"] = value
+    return meta
+
+
+def run(args: argparse.Namespace) -> int:
+    from walkmon.tables import read_table  # noqa: PLC0415
+
+    path = Path(args.angles)
+    table = read_table(path, ANGLE_COLUMNS)
+    t = table["t"]
+    angles = np.column_stack([table[c] for c in ANGLE_COLUMNS[1:]])
+    json_path, html_path, ind = gait_outputs(
+        args.out, t, angles, baseline_path=args.baseline, mode=args.mode, meta=_meta_beside(path)
+    )
+    cls = ind.classification
+    sys.stdout.write(
+        f"{cls.label}: cadence {ind.cadence_spm:.1f} steps/min, walking {ind.walking_s:.1f} s "
+        f"[{ind.status.value}]\n  " + "\n  ".join(cls.reasons) + f"\n-> {json_path}\n-> {html_path}\n"
+    )
+    return 0
