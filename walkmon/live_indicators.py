@@ -1,0 +1,380 @@
+"""Sliding-window live indicators: upright calibration, walking detection, cadence, swing, inclination, label.
+
+A stage (no threads, no I/O, no clock reads): :meth:`LiveIndicatorStage.push` takes one camera orientation
+sample (capture time and (pitch, yaw, roll) in degrees relative to the first frame) and returns a
+:class:`LiveIndicators` once per hop (``hop_s``, default 1 s) computed over the last ``window_s`` (default 8 s):
+
+* **Upright calibration.** At the start, and again after :meth:`request_calibration` (SIGUSR1 in ``walkmon
+  live``), the stage waits for ``calibration_s`` of stillness and takes the mean angles as the upright
+  reference; inclinations are measured from it. Until then the first frame is the reference.
+* **Not walking** is detected from the gait-band RMS of the angles over the last ``walking_window_s``; the
+  alert stage does not alert then.
+* **Cadence** from the FFT peak of the pitch waveform (the vertical rhythm is at step frequency), refined below
+  the bin width by parabolic interpolation of the log magnitude.
+* **Swing** (per axis, mean over gait cycles of max - min, the paper's φ) and **inclination** (mean over cycles
+  of (max + min) / 2, the paper's ρ, relative to the upright reference), cycles being steps for pitch and
+  strides for yaw and roll.
+* **Posture** = mean calibrated angles over the last ``posture_window_s``: what alerts react to, so that a
+  change of posture shows up within about a second rather than after half a window.
+* **Label**: normal / bend / left_shoulder_down / right_foot_drag / not_walking / unclassified, by documented
+  thresholds (``classify_window``), following the paper's Sec. 5.2 reasoning.
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walkmon.consts import AXES
+
+__all__ = [
+    "DEFAULT_LIVE_INDICATOR_SETTINGS",
+    "CalibrationEvent",
+    "LiveIndicatorSettings",
+    "LiveIndicatorStage",
+    "LiveIndicators",
+    "cadence_hz_from_signal",
+    "classify_window",
+    "cycle_extremes",
+    "gait_band_rms_deg",
+    "resample_uniform",
+]
+
+LABELS = ("normal", "bend", "left_shoulder_down", "right_foot_drag", "not_walking", "unclassified")
+
+
+@dataclass(frozen=True, slots=True)
+class LiveIndicatorSettings:
+    """Settings of the sliding-window stage (seconds, degrees, steps per minute)."""
+
+    #: Analysis window for cadence, swing and inclination, s.
+    window_s: float = 8.0
+    #: One result per hop, s.
+    hop_s: float = 1.0
+    #: Recent window for the posture the alerts react to, s.
+    posture_window_s: float = 1.5
+    #: Window for the walking detector, s.
+    walking_window_s: float = 3.0
+    #: Gait-band RMS (max over pitch and roll) above which the wearer is walking, degrees.
+    walking_min_rms_deg: float = 0.2
+    #: Gait band, Hz (step and stride rhythms of walking).
+    gait_band_hz: tuple[float, float] = (0.6, 3.5)
+    #: Plausible cadence range, steps/min.
+    cadence_min_spm: float = 60.0
+    cadence_max_spm: float = 150.0
+    #: Upright calibration: this long a still stance, s ...
+    calibration_s: float = 2.0
+    #: ... with every axis' standard deviation below this, degrees.
+    calibration_max_std_deg: float = 0.3
+    #: Uniform resampling rate of the analysis, Hz.
+    resample_hz: float = 30.0
+    #: Classification thresholds, degrees (``classify_window``).
+    bend_pitch_deg: float = 10.0
+    shoulder_down_roll_deg: float = 4.0
+    foot_drag_roll_swing_deg: float = 6.0
+    foot_drag_asymmetry: float = 0.35
+
+    def __post_init__(self) -> None:
+        for name in ("window_s", "hop_s", "posture_window_s", "walking_window_s", "calibration_s", "resample_hz"):
+            if not getattr(self, name) > 0:
+                msg = f"indicators.{name} must be > 0, got {getattr(self, name)}"
+                raise ValueError(msg)
+        if self.walking_window_s > self.window_s or self.posture_window_s > self.window_s:
+            msg = "indicators.walking_window_s and posture_window_s must not exceed window_s"
+            raise ValueError(msg)
+        lo, hi = self.gait_band_hz
+        if not 0 < lo < hi:
+            msg = f"indicators.gait_band_hz must be (low, high) with 0 < low < high, got {self.gait_band_hz}"
+            raise ValueError(msg)
+        if not 0 < self.cadence_min_spm < self.cadence_max_spm:
+            msg = "indicators.cadence_min_spm must be > 0 and < cadence_max_spm"
+            raise ValueError(msg)
+
+
+DEFAULT_LIVE_INDICATOR_SETTINGS = LiveIndicatorSettings()
+
+
+@dataclass(frozen=True, slots=True)
+class CalibrationEvent:
+    """An upright reference taken (or assumed) at ``t_s``: mean (pitch, yaw, roll) in degrees."""
+
+    t_s: float
+    angles_deg: tuple[float, float, float]
+    reason: str  # "start", "request" or "fallback"
+    duration_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class LiveIndicators:
+    """One hop's indicators. Angles in degrees, relative to the upright reference; NaN where unknown."""
+
+    t_s: float
+    window_s: float
+    n_samples: int
+    walking: bool
+    gait_rms_deg: float
+    cadence_spm: float
+    swing_deg: tuple[float, float, float]
+    inclination_deg: tuple[float, float, float]
+    posture_deg: tuple[float, float, float]
+    step_asymmetry: float
+    label: str
+    reasons: tuple[str, ...]
+    calibrated: bool
+    calibration: CalibrationEvent | None = None
+    extra: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, object]:
+        def num(v: float) -> float | None:
+            return None if v is None or not math.isfinite(v) else round(float(v), 4)
+
+        return {
+            "t_s": num(self.t_s),
+            "window_s": self.window_s,
+            "n_samples": self.n_samples,
+            "walking": self.walking,
+            "gait_rms_deg": num(self.gait_rms_deg),
+            "cadence_spm": num(self.cadence_spm),
+            "axes": {
+                ax: {
+                    "swing_deg": num(self.swing_deg[i]),
+                    "inclination_deg": num(self.inclination_deg[i]),
+                    "posture_deg": num(self.posture_deg[i]),
+                }
+                for i, ax in enumerate(AXES)
+            },
+            "step_asymmetry": num(self.step_asymmetry),
+            "classification": {"label": self.label, "reasons": list(self.reasons)},
+            "calibrated": self.calibrated,
+        }
+
+
+# ----------------------------------------------------------------------------------------------- pure maths
+
+
+def resample_uniform(t_s: NDArray[np.float64], values: NDArray[np.float64], rate_hz: float) -> tuple[
+    NDArray[np.float64], NDArray[np.float64]
+]:
+    """Linear interpolation of ``values`` (N, K) sampled at increasing ``t_s`` onto a uniform grid."""
+    if len(t_s) < 2:
+        return t_s.copy(), values.copy()
+    n = int(math.floor((t_s[-1] - t_s[0]) * rate_hz)) + 1
+    grid = t_s[0] + np.arange(n) / rate_hz
+    out = np.column_stack([np.interp(grid, t_s, values[:, k]) for k in range(values.shape[1])])
+    return grid, out
+
+
+def _detrend(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    n = len(x)
+    if n < 2:
+        return x - x.mean() if n else x
+    s = np.arange(n, dtype=float)
+    a, b = np.polyfit(s, x, 1)
+    return x - (a * s + b)
+
+
+def gait_band_rms_deg(x: NDArray[np.float64], rate_hz: float, band_hz: tuple[float, float]) -> float:
+    """RMS of ``x`` (uniformly sampled, degrees) restricted to ``band_hz`` after removing a linear trend."""
+    if len(x) < 8:
+        return 0.0
+    spec = np.fft.rfft(_detrend(np.asarray(x, dtype=float)))
+    f = np.fft.rfftfreq(len(x), 1.0 / rate_hz)
+    spec[(f < band_hz[0]) | (f > band_hz[1])] = 0
+    y = np.fft.irfft(spec, n=len(x))
+    return float(np.sqrt(np.mean(y * y)))
+
+
+def cadence_hz_from_signal(
+    x: NDArray[np.float64], rate_hz: float, band_hz: tuple[float, float], pad_to: int = 4096
+) -> tuple[float, float]:
+    """Dominant frequency of ``x`` inside ``band_hz`` and its share of the band's power.
+
+    Linear detrend, Hamming taper, zero-padded FFT, parabolic interpolation of the log magnitude around the
+    peak (sub-bin refinement). Returns (NaN, 0) when the signal is too short or flat.
+    """
+    x = np.asarray(x, dtype=float)
+    if len(x) < 16:
+        return math.nan, 0.0
+    y = _detrend(x) * np.hamming(len(x))
+    n = max(pad_to, 1 << int(math.ceil(math.log2(len(x)))))
+    mag = np.abs(np.fft.rfft(y, n=n))
+    f = np.fft.rfftfreq(n, 1.0 / rate_hz)
+    band = np.flatnonzero((f >= band_hz[0]) & (f <= band_hz[1]))
+    if band.size < 3 or not np.any(mag[band] > 0):
+        return math.nan, 0.0
+    k = int(band[np.argmax(mag[band])])
+    near = band[np.abs(f[band] - f[k]) <= rate_hz / len(x)]  # within one unpadded bin of the peak
+    share = float(np.sum(mag[near] ** 2) / np.sum(mag[band] ** 2))
+    if 0 < k < len(mag) - 1 and mag[k - 1] > 0 and mag[k + 1] > 0:
+        a, b, c = np.log(mag[k - 1]), np.log(mag[k]), np.log(mag[k + 1])
+        denom = a - 2 * b + c
+        delta = 0.5 * (a - c) / denom if denom != 0 else 0.0
+        return float(f[k] + np.clip(delta, -0.5, 0.5) * (f[1] - f[0])), share
+    return float(f[k]), share
+
+
+def cycle_extremes(x: NDArray[np.float64], rate_hz: float, cycle_hz: float) -> tuple[
+    NDArray[np.float64], NDArray[np.float64]
+]:
+    """Per complete cycle (period ``1 / cycle_hz``, counted back from the newest sample): (max, min) arrays."""
+    period = int(round(rate_hz / cycle_hz)) if cycle_hz > 0 else 0
+    if period < 2 or len(x) < period:
+        return np.empty(0), np.empty(0)
+    n_cycles = len(x) // period
+    seg = np.asarray(x[len(x) - n_cycles * period :], dtype=float).reshape(n_cycles, period)
+    return seg.max(axis=1), seg.min(axis=1)
+
+
+def classify_window(
+    inclination_deg: tuple[float, float, float],
+    swing_deg: tuple[float, float, float],
+    step_asymmetry: float,
+    walking: bool,
+    settings: LiveIndicatorSettings = DEFAULT_LIVE_INDICATOR_SETTINGS,
+) -> tuple[str, tuple[str, ...]]:
+    """Label of one window with its reasons (thresholds from ``settings``; paper Sec. 5.2 reasoning)."""
+    if not walking:
+        return "not_walking", ("gait-band motion below the walking threshold",)
+    pitch_inc, _, roll_inc = inclination_deg
+    roll_swing = swing_deg[2]
+    if not all(math.isfinite(v) for v in (pitch_inc, roll_inc)):
+        return "unclassified", ("no complete gait cycle in the window",)
+    if pitch_inc < -settings.bend_pitch_deg:
+        return "bend", (f"pitch inclination {pitch_inc:.1f} deg < -{settings.bend_pitch_deg:g} deg",)
+    if roll_inc < -settings.shoulder_down_roll_deg:
+        return "left_shoulder_down", (f"roll inclination {roll_inc:.1f} deg < -{settings.shoulder_down_roll_deg:g}",)
+    reasons = []
+    if math.isfinite(roll_swing) and roll_swing > settings.foot_drag_roll_swing_deg:
+        reasons.append(f"roll swing {roll_swing:.1f} deg > {settings.foot_drag_roll_swing_deg:g} deg")
+    if math.isfinite(step_asymmetry) and step_asymmetry > settings.foot_drag_asymmetry:
+        reasons.append(f"step asymmetry {step_asymmetry:.2f} > {settings.foot_drag_asymmetry:g}")
+    if reasons:
+        return "right_foot_drag", tuple(reasons)
+    return "normal", ("inclination and swings within the normal thresholds",)
+
+
+# ------------------------------------------------------------------------------------------------- the stage
+
+
+class LiveIndicatorStage:
+    """Sliding-window indicator stage: ``push(t_s, angles_deg) -> LiveIndicators | None`` and ``reset()``."""
+
+    def __init__(self, settings: LiveIndicatorSettings = DEFAULT_LIVE_INDICATOR_SETTINGS) -> None:
+        self.settings = settings
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget all samples and the upright reference; calibrate again from the next still stance."""
+        self._t: collections.deque[float] = collections.deque()
+        self._a: collections.deque[tuple[float, float, float]] = collections.deque()
+        self._next_hop_t: float | None = None
+        self._reference = np.zeros(3)
+        self._calibrated = False
+        self._calibration_pending = "start"
+        self._pending_event: CalibrationEvent | None = None
+
+    @property
+    def reference_deg(self) -> NDArray[np.float64]:
+        """Current upright reference (pitch, yaw, roll), degrees."""
+        return self._reference.copy()
+
+    @property
+    def calibrated(self) -> bool:
+        return self._calibrated
+
+    def request_calibration(self) -> None:
+        """Take a new upright reference from the next ``calibration_s`` of still stance."""
+        self._calibration_pending = "request"
+
+    def push(self, t_s: float, angles_deg: NDArray[np.float64] | tuple[float, float, float]) -> LiveIndicators | None:
+        """Add one sample; returns the hop's indicators when a hop boundary is crossed, else ``None``."""
+        a = tuple(float(v) for v in angles_deg)
+        if not all(math.isfinite(v) for v in a):
+            return None
+        if self._t and t_s <= self._t[-1]:
+            return None  # out of order or repeated timestamp: ignore
+        s = self.settings
+        self._t.append(float(t_s))
+        self._a.append(a)  # type: ignore[arg-type]
+        while self._t and self._t[0] < t_s - s.window_s:
+            self._t.popleft()
+            self._a.popleft()
+        if self._calibration_pending:
+            self._try_calibrate()
+        if self._next_hop_t is None:
+            self._next_hop_t = t_s + s.hop_s
+            return None
+        if t_s + 1e-9 < self._next_hop_t:
+            return None
+        self._next_hop_t += s.hop_s * max(1, math.floor((t_s - self._next_hop_t) / s.hop_s) + 1)
+        return self._compute(t_s)
+
+    def _try_calibrate(self) -> None:
+        s = self.settings
+        t = np.fromiter(self._t, float)
+        recent = t >= t[-1] - s.calibration_s
+        if t[-1] - t[recent][0] < 0.9 * s.calibration_s or recent.sum() < 5:
+            return
+        a = np.asarray(self._a, dtype=float)[recent]
+        if np.all(a.std(axis=0) <= s.calibration_max_std_deg):
+            self._reference = a.mean(axis=0)
+            self._calibrated = True
+            self._pending_event = CalibrationEvent(
+                float(t[-1]), tuple(float(v) for v in self._reference), self._calibration_pending,  # type: ignore[arg-type]
+                float(t[-1] - t[recent][0]),
+            )
+            self._calibration_pending = ""
+
+    def _compute(self, t_now: float) -> LiveIndicators:
+        s = self.settings
+        t = np.fromiter(self._t, float)
+        a = np.asarray(self._a, dtype=float) - self._reference
+        grid, u = resample_uniform(t, a, s.resample_hz)
+        fs = s.resample_hz
+        nan3 = (math.nan, math.nan, math.nan)
+        recent = t >= t_now - s.posture_window_s
+        posture = tuple(float(v) for v in a[recent].mean(axis=0)) if recent.any() else nan3
+        walk_part = u[grid >= t_now - s.walking_window_s]
+        gait_rms = max(gait_band_rms_deg(walk_part[:, k], fs, s.gait_band_hz) for k in (0, 2)) if len(walk_part) else 0.0
+        walking = bool(gait_rms >= s.walking_min_rms_deg)
+        cadence_spm = math.nan
+        swing, incl, asym = nan3, nan3, math.nan
+        if walking and len(u) >= 16:
+            band = (s.cadence_min_spm / 60.0, s.cadence_max_spm / 60.0)
+            f_step, _ = cadence_hz_from_signal(u[:, 0], fs, band)
+            if math.isfinite(f_step):
+                cadence_spm = 60.0 * f_step
+                sw, inc = [], []
+                for k in range(3):
+                    cycle_hz = f_step if k == 0 else f_step / 2.0
+                    hi, lo = cycle_extremes(u[:, k], fs, cycle_hz)
+                    hi_d, lo_d = cycle_extremes(_detrend(u[:, k]), fs, cycle_hz)
+                    sw.append(float(np.mean(hi_d - lo_d)) if hi_d.size else math.nan)
+                    inc.append(float(np.mean((hi + lo) / 2.0)) if hi.size else math.nan)
+                    if k == 0 and hi_d.size >= 4:
+                        steps = hi_d - lo_d
+                        even, odd = steps[0::2].mean(), steps[1::2].mean()
+                        asym = float(abs(even - odd) / max((even + odd) / 2.0, 1e-9))
+                swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
+        label, reasons = classify_window(incl, swing, asym, walking, s)  # type: ignore[arg-type]
+        event, self._pending_event = self._pending_event, None
+        return LiveIndicators(
+            t_s=float(t_now),
+            window_s=float(t[-1] - t[0]),
+            n_samples=len(t),
+            walking=walking,
+            gait_rms_deg=float(gait_rms),
+            cadence_spm=float(cadence_spm),
+            swing_deg=swing,  # type: ignore[arg-type]
+            inclination_deg=incl,  # type: ignore[arg-type]
+            posture_deg=posture,  # type: ignore[arg-type]
+            step_asymmetry=float(asym),
+            label=label,
+            reasons=reasons,
+            calibrated=self._calibrated,
+            calibration=event,
+        )
