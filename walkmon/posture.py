@@ -18,10 +18,16 @@ Default thresholds (degrees; see :class:`PostureThresholds`):
 rule                                   no baseline with a baseline (differences walk - baseline)
 =====================================  ==========  =================================================================
 right_foot_drag: total swing           >= 16 deg   >= 2.0 x the baseline's total swing (pitch + yaw + roll)
-left_shoulder_down: roll inclination   <= -3 deg   drops by >= 0.5 deg, and by >= 0.3 x the pitch inclination's drop
-bend: pitch inclination                <= -8 deg   drops by >= 0.8 deg, and pitch lmax and lmin both drop
-normal: everything inside              |rho| < 3   total swing ratio in [0.5, 2), |delta rho| < 0.8 (pitch/roll)
+left_shoulder_down: roll inclination   <= -3 deg   drops by >= T_r, and by >= 0.3 x the pitch inclination's drop
+bend: pitch inclination                <= -8 deg   drops by >= T_p, and pitch lmax and lmin both drop
+normal: everything inside              |rho| < 3   total swing ratio in [0.5, 2), |d rho_p| < T_p, |d rho_r| < T_r
 =====================================  ==========  =================================================================
+
+With a baseline the inclination thresholds scale with the person's own sway, because an inclination change
+small against the natural swing of that axis is within walk-to-walk variability:
+``T_r = max(0.3 deg, 0.4 x baseline roll swing)`` and ``T_p = max(0.5 deg, 0.6 x baseline pitch swing)``.
+On the paper's Table 3 (swings ~1 deg) that gives T_r = 0.41 and T_p = 0.82 deg; on a simulated normal walk
+(swings 2-4 deg) about 1-1.7 deg, above the +-0.5 deg posture offsets the simulator draws for normal walks.
 
 Anything else (e.g. leaning right or backward) is ``unclassified``, with the reasons saying what was seen.
 """
@@ -59,9 +65,11 @@ class PostureThresholds:
     normal_max_inclination_deg: float = 3.0
     # relative (with a baseline)
     drag_swing_ratio: float = 2.0
-    left_roll_drop_deg: float = 0.5
+    left_roll_drop_deg: float = 0.3
+    left_roll_drop_swing_fraction: float = 0.4
     left_roll_vs_pitch: float = 0.3
-    bend_pitch_drop_deg: float = 0.8
+    bend_pitch_drop_deg: float = 0.5
+    bend_pitch_drop_swing_fraction: float = 0.6
     normal_min_swing_ratio: float = 0.5
 
     def __post_init__(self) -> None:
@@ -167,7 +175,7 @@ def _relative(doc: Mapping[str, Any], base: Mapping[str, Any], th: PostureThresh
     base_total = _total_swing(base)
     total = _total_swing(doc)
     ratio = total / base_total if base_total > 0 else float("nan")
-    if not all(math.isfinite(v) for v in (d_rho_p, d_rho_r, ratio)):
+    if not all(math.isfinite(v) for v in (d_rho_p, d_rho_r, ratio, _axis(base, "roll", "swing_mean"))):
         return "unclassified", ["baseline lacks pitch/roll indicators"]
     if ratio >= th.drag_swing_ratio:
         per_axis = ", ".join(
@@ -178,24 +186,26 @@ def _relative(doc: Mapping[str, Any], base: Mapping[str, Any], th: PostureThresh
             "as in the paper's right foot drag walk",
             *_extras(doc),
         ]
-    if d_rho_r <= -th.left_roll_drop_deg and d_rho_r <= -th.left_roll_vs_pitch * abs(d_rho_p):
+    t_r = max(th.left_roll_drop_deg, th.left_roll_drop_swing_fraction * _axis(base, "roll", "swing_mean"))
+    t_p = max(th.bend_pitch_drop_deg, th.bend_pitch_drop_swing_fraction * _axis(base, "pitch", "swing_mean"))
+    if d_rho_r <= -t_r and d_rho_r <= -th.left_roll_vs_pitch * abs(d_rho_p):
         return "left_shoulder_down", [
-            f"roll inclination {d_rho_r:+.2f} deg vs the baseline: trunk tilted to the left",
+            f"roll inclination {d_rho_r:+.2f} deg vs the baseline (threshold -{t_r:.2f}): trunk tilted to the left",
             f"pitch inclination {d_rho_p:+.2f} deg vs the baseline",
         ]
-    if d_rho_p <= -th.bend_pitch_drop_deg and d_max_p < 0 and d_min_p < 0:
+    if d_rho_p <= -t_p and d_max_p < 0 and d_min_p < 0:
         return "bend", [
-            f"pitch inclination {d_rho_p:+.2f} deg vs the baseline: trunk bent forward",
+            f"pitch inclination {d_rho_p:+.2f} deg vs the baseline (threshold -{t_p:.2f}): trunk bent forward",
             f"pitch extremums lower by {-d_max_p:.2f} (max) and {-d_min_p:.2f} (min) deg",
         ]
     if (
         th.normal_min_swing_ratio <= ratio < th.drag_swing_ratio
-        and abs(d_rho_p) < th.bend_pitch_drop_deg
-        and abs(d_rho_r) < max(th.left_roll_drop_deg, th.bend_pitch_drop_deg)
+        and abs(d_rho_p) < t_p
+        and abs(d_rho_r) < t_r
     ):
         return "normal", [
-            f"inclinations within {th.bend_pitch_drop_deg:g} deg of the baseline "
-            f"(pitch {d_rho_p:+.2f}, roll {d_rho_r:+.2f})",
+            f"inclinations near the baseline's (pitch {d_rho_p:+.2f} deg, within {t_p:.2f}; "
+            f"roll {d_rho_r:+.2f} deg, within {t_r:.2f})",
             f"swings {ratio:.2f} x the baseline's",
         ]
     return "unclassified", [
