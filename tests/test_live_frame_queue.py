@@ -63,3 +63,28 @@ def test_slow_consumer_sees_newest_frames_and_every_frame_is_accounted_for() -> 
     assert q.dropped > 0
     assert len(got) + q.dropped == n  # every frame is either delivered or counted as dropped
     assert q.put_count == n
+
+
+def test_put_wait_applies_back_pressure_without_dropping() -> None:
+    q: FrameQueue[int] = FrameQueue(2)
+    assert q.put_wait(1, 0) and q.put_wait(2, 0)
+    assert not q.put_wait(3, 0.01)  # full: refused, not dropped
+    assert q.dropped == 0
+    got: list[int] = []
+
+    def consumer() -> None:
+        while True:
+            try:
+                item = q.get(1.0)
+            except QueueClosed:
+                return
+            if item is not None:
+                got.append(item)
+
+    th = threading.Thread(target=consumer)
+    th.start()
+    for i in range(3, 500):
+        assert q.put_wait(i, 5.0)
+    q.close()
+    th.join(10)
+    assert got == list(range(1, 500)) and q.dropped == 0

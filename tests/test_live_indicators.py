@@ -140,3 +140,14 @@ def test_classify_window_thresholds() -> None:
     assert classify_window((0, 0, 0), (2, 2, 9), 0.1, walking=True)[0] == "right_foot_drag"
     assert classify_window((0, 0, 0), (2, 2, 2), 0.6, walking=True)[0] == "right_foot_drag"
     assert classify_window((0, 0, 0), (2, 2, 2), 0.1, walking=True)[0] == "normal"
+
+
+def test_step_asymmetry_is_zero_for_alternating_equal_steps_and_grows_when_they_differ() -> None:
+    from walkmon.live_indicators import step_asymmetry_from_pitch
+
+    t = np.arange(int(8 * FPS)) / FPS
+    f = 1.8
+    sym = np.sin(2 * np.pi * f * t)
+    assert step_asymmetry_from_pitch(sym, FPS, f) < 0.02
+    limp = sym * (1 + 0.5 * np.sign(np.sin(np.pi * f * t)))  # every other step 3x the swing of the other
+    assert step_asymmetry_from_pitch(limp, FPS, f) > 0.3

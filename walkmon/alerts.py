@@ -56,8 +56,8 @@ class AlertSettings:
     shoulder_down_hysteresis_deg: float = 2.0
     unsteady_roll_swing_deg: float = 8.0
     unsteady_hysteresis_deg: float = 2.0
-    asymmetry_ratio: float = 0.5
-    asymmetry_hysteresis: float = 0.15
+    asymmetry_ratio: float = 0.35
+    asymmetry_hysteresis: float = 0.1
 
     def __post_init__(self) -> None:
         unknown = [c for c in self.enabled if c not in CONDITIONS]

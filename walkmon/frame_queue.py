@@ -1,7 +1,9 @@
 """A bounded, thread-safe queue in which the newest item wins.
 
 When the consumer falls behind, :meth:`FrameQueue.put` drops the *oldest* queued item to make room and counts
-it, so memory stays bounded and the consumer always works on the most recent frames. Used between the frame
+it, so memory stays bounded and the consumer always works on the most recent frames. Sources that are not live
+(a file or the simulator read as fast as possible) use :meth:`FrameQueue.put_wait` instead: back-pressure,
+no drops. Used between the frame
 grabber thread and the processing loop of :mod:`walkmon.pipeline`.
 """
 
@@ -71,8 +73,22 @@ class FrameQueue(Generic[T]):
             self._dropped += n_dropped
             self._put_count += 1
             self._items.append(item)
-            self._cond.notify()
+            self._cond.notify_all()
             return n_dropped
+
+    def put_wait(self, item: T, timeout_s: float | None = None) -> bool:
+        """Enqueue ``item``, waiting up to ``timeout_s`` for room instead of dropping (for sources that are not
+        live, such as a file read as fast as possible). False if there was no room in time or the queue is closed.
+        """
+        with self._cond:
+            if not self._closed and len(self._items) >= self._maxsize:
+                self._cond.wait_for(lambda: self._closed or len(self._items) < self._maxsize, timeout=timeout_s)
+            if self._closed or len(self._items) >= self._maxsize:
+                return False
+            self._put_count += 1
+            self._items.append(item)
+            self._cond.notify_all()
+            return True
 
     def get(self, timeout_s: float | None = None) -> T | None:
         """Oldest queued item, waiting at most ``timeout_s``; ``None`` on timeout.
@@ -83,7 +99,9 @@ class FrameQueue(Generic[T]):
             if not self._items and not self._closed:
                 self._cond.wait_for(lambda: self._items or self._closed, timeout=timeout_s)
             if self._items:
-                return self._items.popleft()
+                item = self._items.popleft()
+                self._cond.notify_all()  # room for a waiting put_wait
+                return item
             if self._closed:
                 raise QueueClosed
             return None

@@ -42,6 +42,7 @@ __all__ = [
     "cycle_extremes",
     "gait_band_rms_deg",
     "resample_uniform",
+    "step_asymmetry_from_pitch",
 ]
 
 LABELS = ("normal", "bend", "left_shoulder_down", "right_foot_drag", "not_walking", "unclassified")
@@ -229,6 +230,29 @@ def cycle_extremes(x: NDArray[np.float64], rate_hz: float, cycle_hz: float) -> t
     return seg.max(axis=1), seg.min(axis=1)
 
 
+def _amplitude_at(x: NDArray[np.float64], rate_hz: float, freq_hz: float) -> float:
+    """Amplitude of ``x`` (detrended, Hamming-tapered) at ``freq_hz`` by direct DFT projection."""
+    y = _detrend(np.asarray(x, dtype=float))
+    w = np.hamming(len(y))
+    n = np.arange(len(y))
+    return float(2.0 * abs(np.sum(w * y * np.exp(-2j * np.pi * freq_hz * n / rate_hz))) / np.sum(w))
+
+
+def step_asymmetry_from_pitch(pitch_deg: NDArray[np.float64], rate_hz: float, step_hz: float) -> float:
+    """Left/right step asymmetry: pitch amplitude at the stride frequency over that at the step frequency.
+
+    Steps alternate sides, so a symmetric gait moves pitch at the step frequency only; when left and right
+    steps differ (a dragged foot, a limp) the pattern repeats once per stride and a component at half the
+    step frequency appears. 0 for a symmetric gait; about 1 when alternate steps differ as much as they swing.
+    """
+    if len(pitch_deg) < 2 * rate_hz / max(step_hz, 1e-9):
+        return math.nan
+    a_step = _amplitude_at(pitch_deg, rate_hz, step_hz)
+    if a_step <= 1e-9:
+        return math.nan
+    return _amplitude_at(pitch_deg, rate_hz, step_hz / 2.0) / a_step
+
+
 def classify_window(
     inclination_deg: tuple[float, float, float],
     swing_deg: tuple[float, float, float],
@@ -355,10 +379,7 @@ class LiveIndicatorStage:
                     hi_d, lo_d = cycle_extremes(_detrend(u[:, k]), fs, cycle_hz)
                     sw.append(float(np.mean(hi_d - lo_d)) if hi_d.size else math.nan)
                     inc.append(float(np.mean((hi + lo) / 2.0)) if hi.size else math.nan)
-                    if k == 0 and hi_d.size >= 4:
-                        steps = hi_d - lo_d
-                        even, odd = steps[0::2].mean(), steps[1::2].mean()
-                        asym = float(abs(even - odd) / max((even + odd) / 2.0, 1e-9))
+                asym = step_asymmetry_from_pitch(u[:, 0], fs, f_step)
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
         label, reasons = classify_window(incl, swing, asym, walking, s)  # type: ignore[arg-type]
         event, self._pending_event = self._pending_event, None

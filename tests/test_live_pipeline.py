@@ -1,0 +1,216 @@
+"""The live pipeline on scripted walks: alerts in time, clean close on end of stream, reconnection, drops.
+
+These tests drive the pipeline with the simulator's gait model (ground-truth orientation) through a test
+double of the rotation estimator that returns the true angles, so they check the threads, the indicator and
+alert stages and the session log independently of image processing. The end-to-end test on rendered video
+with the real estimator is in test_live_end_to_end.py.
+"""
+
+from __future__ import annotations
+
+import sqlite3
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from walkmon.alerts import AlertSettings, AlertStage
+from walkmon.drivers.camera_base import CameraSource, Frame
+from walkmon.errors import SourceDisconnected, SourceError
+from walkmon.live_indicators import LiveIndicatorStage
+from walkmon.pipeline import LivePipeline
+from walkmon.session_log import SessionLog, list_sessions, open_database, read_session_table
+from walkmon.simulate.gait import GaitModel
+
+FPS = 30.0
+TINY = np.zeros((4, 4), np.uint8)
+
+
+class GaitSource(CameraSource):
+    """Frames at 30 fps of a scripted walk (tiny blank images; the truth travels via the gait model)."""
+
+    def __init__(self, model: GaitModel, stop_after_s: float | None = None, realtime: bool = False) -> None:
+        super().__init__("test:gait")
+        self.model, self.stop_after_s, self.realtime = model, stop_after_s, realtime
+        self.live = realtime
+        self.fps = FPS
+        self.produced = 0
+
+    def _open(self) -> None:
+        self._i = 0
+        self._t0 = time.monotonic()
+
+    def _read(self) -> Frame:
+        t = self._i / FPS
+        end = self.model.duration_s if self.stop_after_s is None else self.stop_after_s
+        if t > end:
+            raise SourceDisconnected("test:gait: end of stream")
+        if self.realtime:
+            time.sleep(max(0.0, self._t0 + t - time.monotonic()))
+        self._i += 1
+        self.produced += 1
+        return Frame(t, TINY, self._i - 1)
+
+    def _close(self) -> None:
+        pass
+
+
+@dataclass(frozen=True)
+class _Estimate:
+    t_s: float
+    angles_deg: np.ndarray
+    n_inliers: int = 100
+    model: str = "truth"
+    status: str = "ok"
+
+
+class TruthEstimator:
+    def __init__(self, model: GaitModel, delay_s: float = 0.0) -> None:
+        self.model, self.delay_s = model, delay_s
+
+    def push(self, frame: np.ndarray, t_s: float) -> _Estimate:
+        if self.delay_s:
+            time.sleep(self.delay_s)
+        return _Estimate(t_s, np.asarray(self.model.truth_angles_deg(t_s)).reshape(3))
+
+    def reset(self) -> None:
+        pass
+
+
+def make_pipeline(source: CameraSource, estimator: object, data_dir: Path, **kw: object) -> LivePipeline:
+    return LivePipeline(
+        source,
+        lambda _src: estimator,
+        indicators=LiveIndicatorStage(),
+        alerts=AlertStage(AlertSettings(delay_s=5.0)),
+        session_log=SessionLog(data_dir, camera=source.url),
+        **kw,
+    )
+
+
+@pytest.fixture(scope="module")
+def bend_model() -> GaitModel:
+    # standing 0-2 s, normal 2-10 s, bend 10-22 s, normal 22-30 s, standing 30-32 s
+    return GaitModel("normal:8,bend:12,normal:8", seed=3)
+
+
+def test_bend_alert_within_delay_plus_3s_cleared_after_straightening_none_while_standing(
+    bend_model: GaitModel, tmp_path: Path
+) -> None:
+    hops = []
+    p = make_pipeline(GaitSource(bend_model), TruthEstimator(bend_model), tmp_path, on_hop=hops.append)
+    res = p.run()
+    assert res.end_reason.startswith("end of stream")
+    events = [e for h in hops for e in h.events]
+    lean = [(e.state, e.t_s) for e in events if e.kind == "lean_forward"]
+    assert [s for s, _ in lean] == ["raised", "cleared"], events
+    assert 10.0 + 5.0 <= lean[0][1] <= 10.0 + 5.0 + 3.0  # the bend begins at 10 s
+    assert 22.0 < lean[1][1] <= 30.0  # cleared after straightening, before the final stance
+    assert all(e.kind == "lean_forward" for e in events), events  # nothing else on a normal walk
+    standing = [h for h in hops if h.indicators.t_s < 2.0]
+    assert standing and all(not h.indicators.walking and not h.active_alerts for h in standing)
+    labels = {round(h.indicators.t_s): h.indicators.label for h in hops}
+    assert labels[20] == "bend" and labels[9] == "normal"
+    # the session is in the database with its frames, hops and alerts
+    conn = open_database(tmp_path, create=False)
+    frames = read_session_table(conn, res.session_id, "frames")
+    assert len(frames["t_s"]) == res.frames == int(bend_model.duration_s * FPS) + 1
+    assert np.allclose(frames["pitch"], bend_model.truth_angles_deg(np.asarray(frames["t_s"]))[:, 0], atol=1e-6)
+    alerts = read_session_table(conn, res.session_id, "alerts")
+    assert alerts["state"] == ["raised", "cleared"]
+    cal = read_session_table(conn, res.session_id, "calibrations")
+    assert cal["reason"] == ["start"] and cal["t_s"][0] <= 2.1
+    conn.close()
+
+
+def test_source_ending_mid_stream_closes_the_session_with_its_data(bend_model: GaitModel, tmp_path: Path) -> None:
+    src = GaitSource(bend_model, stop_after_s=6.0)
+    res = make_pipeline(src, TruthEstimator(bend_model), tmp_path).run()
+    assert res.end_reason.startswith("end of stream") and res.frames == src.produced == 181
+    (s,) = list_sessions(tmp_path)
+    assert s.ended_utc and s.n_frames == 181 and s.n_hops == res.hops >= 5
+    assert s.duration_s == pytest.approx(6.0)
+
+
+def test_stop_from_another_thread_ends_a_realtime_session_cleanly(bend_model: GaitModel, tmp_path: Path) -> None:
+    hop_seen = threading.Event()
+    p = make_pipeline(GaitSource(bend_model, realtime=True), TruthEstimator(bend_model), tmp_path,
+                      on_hop=lambda h: hop_seen.set())
+    threading.Thread(target=lambda: hop_seen.wait(20) and p.stop("test stop"), daemon=True).start()
+    res = p.run()
+    assert res.end_reason == "test stop"
+    assert 0 < res.frames < bend_model.duration_s * FPS
+    assert list_sessions(tmp_path)[0].end_reason == "test stop"
+
+
+def test_slow_consumer_drops_oldest_frames_and_counts_them(bend_model: GaitModel, tmp_path: Path) -> None:
+    """A 30 fps realtime source and a 25 ms-per-frame... no: a 60 ms-per-frame estimator: about half is dropped."""
+    src = GaitSource(bend_model, stop_after_s=3.0, realtime=True)
+    res = make_pipeline(src, TruthEstimator(bend_model, delay_s=0.06), tmp_path).run()
+    assert res.dropped > 0
+    assert res.frames + res.dropped == src.produced  # every frame processed or counted as dropped
+    conn = open_database(tmp_path, create=False)
+    t = np.asarray(read_session_table(conn, res.session_id, "frames")["t_s"])
+    conn.close()
+    assert np.all(np.diff(t) > 0) and t[-1] == pytest.approx(3.0)  # in order, and the newest frame was kept
+    assert list_sessions(tmp_path)[0].n_dropped == res.dropped
+
+
+class FlakySource(GaitSource):
+    """Disconnects at 2 s; the first two reopen attempts fail (device not back yet)."""
+
+    reconnectable = True
+
+    def __init__(self, model: GaitModel) -> None:
+        super().__init__(model, stop_after_s=4.0)
+        self.opens = 0
+        self.failed_reopens = 0
+        self._resume_i = 0
+
+    def _open(self) -> None:
+        self.opens += 1
+        if self.opens in (2, 3):
+            self.failed_reopens += 1
+            raise SourceError("test: device not there yet")
+        self._i = self._resume_i
+
+    def _read(self) -> Frame:
+        if self.opens == 1 and self._i == int(2 * FPS):
+            self._resume_i = self._i + 5  # frames lost while unplugged
+            raise SourceDisconnected("test: unplugged")
+        if self._i / FPS > self.stop_after_s:
+            self.reconnectable = False
+        return super()._read()
+
+
+def test_reconnectable_source_is_reopened_with_backoff(bend_model: GaitModel, tmp_path: Path) -> None:
+    from walkmon.config import PipelineSettings
+
+    src = FlakySource(bend_model)
+    p = make_pipeline(src, TruthEstimator(bend_model), tmp_path,
+                      settings=PipelineSettings(reconnect_initial_s=0.01, reconnect_max_s=0.05))
+    res = p.run()
+    assert res.reconnects == 1 and src.failed_reopens == 2 and src.opens == 4
+    assert res.frames == src.produced == int(4 * FPS) + 1 - 5
+    assert res.end_reason.startswith("end of stream")
+
+
+class BrokenSource(GaitSource):
+    def _read(self) -> Frame:
+        if self._i == 10:
+            raise RuntimeError("driver bug")
+        return super()._read()
+
+
+def test_a_failing_thread_is_reported_not_silent(bend_model: GaitModel, tmp_path: Path,
+                                                 caplog: pytest.LogCaptureFixture) -> None:
+    p = make_pipeline(BrokenSource(bend_model), TruthEstimator(bend_model), tmp_path)
+    with pytest.raises(SourceError, match="driver bug"):
+        p.run()
+    assert any("grabber thread failed" in r.message for r in caplog.records)
+    (s,) = list_sessions(tmp_path)
+    assert s.end_reason.startswith("error") and s.n_frames == 10
+    assert sqlite3.connect(tmp_path / "walkmon.sqlite").execute("PRAGMA integrity_check").fetchone()[0] == "ok"

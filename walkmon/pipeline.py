@@ -1,0 +1,454 @@
+"""The live pipeline: the only module of walkmon that starts threads.
+
+::
+
+    camera source ──grabber thread──▶ FrameQueue (newest wins, drops counted)
+                                            │
+    IMU source ──IMU thread──▶ IMU buffer   ▼   processing loop (the caller's thread)
+                                  rotation estimator → LiveIndicatorStage → AlertStage → sinks
+                                            └──────────────▶ SessionLog (batched commits) ◀───┘
+
+* The grabber thread reads frames with their capture timestamps and puts them in a bounded
+  :class:`~walkmon.frame_queue.FrameQueue`; when processing falls behind the oldest frames are dropped and
+  counted. On :class:`~walkmon.errors.SourceDisconnected` a reconnectable source (v4l2, depthai) is reopened
+  with exponential backoff; any other source ends the session cleanly ("end of stream").
+* Threads are stoppable (a stop Event, blocking calls with timeouts, ``join`` with a timeout) and never die
+  silently: an unexpected exception is logged with its traceback and re-raised in the caller by :meth:`run`.
+* The processing loop pings the systemd watchdog, sends READY=1 once the first frame arrived, commits the
+  session log at least every ``flush_interval_s``, and calls ``on_hop`` once per hop (status line).
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from walkmon.alert_sinks import AlertSinks
+from walkmon.alerts import AlertEvent, AlertStage
+from walkmon.config import PipelineSettings
+from walkmon.errors import ConfigError, SourceDisconnected, SourceError, SourceTimeout
+from walkmon.frame_queue import FrameQueue, QueueClosed
+from walkmon.live_indicators import LiveIndicators, LiveIndicatorStage
+from walkmon.sdnotify import Notifier
+from walkmon.session_log import SessionLog
+
+__all__ = [
+    "DEFAULT_PIPELINE_SETTINGS",
+    "FrameResult",
+    "HopReport",
+    "LatencyHistogram",
+    "LivePipeline",
+    "PipelineResult",
+    "make_estimator",
+]
+
+_log = logging.getLogger(__name__)
+
+DEFAULT_PIPELINE_SETTINGS = PipelineSettings()
+_GET_TIMEOUT_S = 0.2
+_JOIN_TIMEOUT_S = 3.0
+
+
+class Estimator(Protocol):
+    def push(self, frame: Any, t_s: float) -> Any: ...
+    def reset(self) -> None: ...
+
+
+def make_estimator(camera: Any, method: str = "fast") -> Estimator:
+    """The rotation estimator of ``walkmon analyze`` (``walkmon.rotation.RotationEstimator``) for ``camera``."""
+    try:
+        from walkmon import rotation  # noqa: PLC0415
+    except ImportError as exc:
+        msg = f"the rotation estimator (walkmon.rotation) is not available: {exc}"
+        raise ConfigError(msg) from exc
+    settings_cls = getattr(rotation, "RotationSettings", None)
+    default = getattr(rotation, "DEFAULT_ROTATION_SETTINGS", None)
+    if settings_cls is not None and default is not None and dataclasses.is_dataclass(default):
+        settings = dataclasses.replace(default, method=method)
+        return rotation.RotationEstimator(camera, settings)
+    return rotation.RotationEstimator(camera)
+
+
+class LatencyHistogram:
+    """Constant-memory latency distribution (0.5 ms bins up to 5 s) with percentiles."""
+
+    BIN_MS = 0.5
+    MAX_MS = 5000.0
+
+    def __init__(self) -> None:
+        self._counts = np.zeros(int(self.MAX_MS / self.BIN_MS) + 1, dtype=np.int64)
+        self.n = 0
+        self.max_ms = 0.0
+        self.sum_ms = 0.0
+
+    def add(self, ms: float) -> None:
+        self._counts[min(int(ms / self.BIN_MS), len(self._counts) - 1)] += 1
+        self.n += 1
+        self.sum_ms += ms
+        self.max_ms = max(self.max_ms, ms)
+
+    def percentile(self, q: float) -> float:
+        """Upper edge of the bin holding the q-th percentile (q in 0..100); NaN if empty."""
+        if self.n == 0:
+            return math.nan
+        k = int(np.searchsorted(np.cumsum(self._counts), math.ceil(q / 100.0 * self.n)))
+        return min((k + 1) * self.BIN_MS, self.max_ms)
+
+    @property
+    def mean_ms(self) -> float:
+        return self.sum_ms / self.n if self.n else math.nan
+
+
+@dataclass(frozen=True, slots=True)
+class FrameResult:
+    """What the processing loop made of one frame (passed to ``on_frame``)."""
+
+    t_s: float
+    angles_deg: tuple[float, float, float]
+    latency_ms: float
+    estimate: Any
+    truth_angles_deg: tuple[float, float, float] | None
+
+
+@dataclass(frozen=True, slots=True)
+class HopReport:
+    """One hop, for the status line: indicators, alert events, counters."""
+
+    indicators: LiveIndicators
+    events: tuple[AlertEvent, ...]
+    active_alerts: tuple[str, ...]
+    frames: int
+    dropped: int
+    fps: float
+    latency_p99_ms: float
+    last_angles_deg: tuple[float, float, float]
+    wall_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class PipelineResult:
+    """Summary of a finished session."""
+
+    session_id: int
+    end_reason: str
+    frames: int
+    dropped: int
+    hops: int
+    alerts_raised: int
+    duration_s: float
+    wall_s: float
+    latency_p50_ms: float
+    latency_p99_ms: float
+    latency_max_ms: float
+    reconnects: int
+    imu_samples: int
+    imu_overflows: int
+
+
+@dataclass(frozen=True, slots=True)
+class _Grabbed:
+    frame: Any
+    grabbed_s: float
+
+
+def _angles(estimate: Any) -> tuple[float, float, float]:
+    a = getattr(estimate, "angles_deg", None)
+    if a is None:
+        from walkmon.consts import angles_deg_from_rotation  # noqa: PLC0415
+
+        a = angles_deg_from_rotation(estimate.rotation)
+    return tuple(float(v) for v in a)  # type: ignore[return-value]
+
+
+def _status_text(status: Any) -> str:
+    if status is None:
+        return ""
+    return str(getattr(status, "name", None) or getattr(status, "value", None) or status)
+
+
+class LivePipeline:
+    """Run one live session: ``run(duration_s)`` in the calling thread; ``stop()`` from anywhere.
+
+    Collaborators are injected: an opened-on-run camera source (:mod:`walkmon.drivers.sources`), an
+    ``estimator_factory(camera_source) -> estimator`` called once the source is open (so it can use the
+    source's own intrinsics), the indicator and alert stages, alert sinks, the session log, an optional IMU
+    source and a :class:`~walkmon.sdnotify.Notifier`.
+    """
+
+    def __init__(
+        self,
+        camera_source: Any,
+        estimator_factory: Callable[[Any], Estimator],
+        *,
+        indicators: LiveIndicatorStage,
+        alerts: AlertStage,
+        session_log: SessionLog,
+        sinks: AlertSinks | None = None,
+        imu_source: Any = None,
+        settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS,
+        notifier: Notifier | None = None,
+        on_hop: Callable[[HopReport], None] | None = None,
+        on_frame: Callable[[FrameResult], None] | None = None,
+    ) -> None:
+        self.camera = camera_source
+        self.imu = imu_source
+        self._estimator_factory = estimator_factory
+        self.indicators = indicators
+        self.alerts = alerts
+        self.log = session_log
+        self.sinks = sinks
+        self.settings = settings
+        self.notifier = notifier or Notifier({})
+        self.on_hop = on_hop
+        self.on_frame = on_frame
+        self.queue: FrameQueue[_Grabbed] = FrameQueue(settings.queue_size)
+        self._stop = threading.Event()
+        self._calibrate = threading.Event()
+        self._thread_errors: list[BaseException] = []
+        self._end_reason = ""
+        self._reconnects = 0
+        self._imu_buffer: collections.deque[Any] = collections.deque()
+        self._imu_lock = threading.Lock()
+        self._imu_max = 20000
+        self._imu_overflows = 0
+        self._imu_count = 0
+        self._started = False
+        self.latency = LatencyHistogram()
+
+    # -- requests from other threads / signal handlers -------------------------------------------------
+    def stop(self, reason: str = "stopped") -> None:
+        """Ask the session to finish (thread- and signal-safe)."""
+        if not self._end_reason:
+            self._end_reason = reason
+        self._stop.set()
+
+    def request_calibration(self) -> None:
+        """Take a new upright reference from the next still stance (thread- and signal-safe)."""
+        self._calibrate.set()
+
+    # -- threads --------------------------------------------------------------------------------------
+    def _grabber(self) -> None:
+        src = self.camera
+        try:
+            while not self._stop.is_set():
+                try:
+                    frame = src.read()
+                except SourceTimeout as exc:
+                    _log.warning("%s", exc)
+                    continue
+                except SourceDisconnected as exc:
+                    if not getattr(src, "reconnectable", False):
+                        self._end_reason = self._end_reason or f"end of stream ({exc})"
+                        _log.info("%s", exc)
+                        return
+                    _log.warning("%s; reconnecting", exc)
+                    if not self._reconnect():
+                        return
+                    continue
+                item = _Grabbed(frame, time.monotonic())
+                if getattr(src, "live", True):
+                    self.queue.put(item)  # newest wins: a late consumer loses the oldest frames (counted)
+                else:
+                    while not self._stop.is_set() and not self.queue.put_wait(item, _GET_TIMEOUT_S):
+                        pass  # back-pressure for sources read as fast as possible
+        except BaseException as exc:
+            _log.exception("camera grabber thread failed")
+            self._thread_errors.append(exc)  # the queue closes below: frames already grabbed are still processed
+        finally:
+            self.queue.close()
+
+    def _reconnect(self) -> bool:
+        src, s = self.camera, self.settings
+        backoff = s.reconnect_initial_s
+        since = time.monotonic()
+        src.close()
+        while not self._stop.is_set():
+            if s.reconnect_give_up_s and time.monotonic() - since > s.reconnect_give_up_s:
+                self._end_reason = self._end_reason or f"camera lost for more than {s.reconnect_give_up_s:g} s"
+                return False
+            if self._stop.wait(backoff):
+                return False
+            try:
+                src.open()
+            except SourceError as exc:
+                _log.warning("reconnect failed (%s); next try in %.1f s", exc, min(backoff * 2, s.reconnect_max_s))
+                backoff = min(backoff * 2, s.reconnect_max_s)
+                continue
+            self._reconnects += 1
+            _log.warning("%s: reconnected", src.url)
+            return True
+        return False
+
+    def _imu_reader(self) -> None:
+        try:
+            while not self._stop.is_set():
+                try:
+                    sample = self.imu.read()
+                except SourceTimeout:
+                    continue
+                except SourceDisconnected as exc:
+                    _log.warning("IMU: %s; continuing without IMU", exc)
+                    return
+                if sample is None:
+                    continue
+                samples = getattr(sample, "samples", None)  # an ImuBatch from the serial driver
+                if samples is None:
+                    samples = (sample,)
+                elif getattr(sample, "overflow", False):
+                    self._imu_overflows += 1
+                    _log.warning("IMU: %d samples dropped by the driver", getattr(sample, "dropped_samples", 0))
+                with self._imu_lock:
+                    for smp in samples:
+                        if len(self._imu_buffer) >= self._imu_max:
+                            self._imu_buffer.popleft()
+                            self._imu_overflows += 1
+                        self._imu_buffer.append(smp)
+        except BaseException as exc:
+            _log.exception("IMU reader thread failed")
+            self._thread_errors.append(exc)
+            self._stop.set()
+
+    def _drain_imu(self) -> None:
+        with self._imu_lock:
+            samples = list(self._imu_buffer)
+            self._imu_buffer.clear()
+        for smp in samples:
+            gyr = getattr(smp, "gyroscope_rad_s", None) or (math.nan, math.nan, math.nan)
+            acc = getattr(smp, "accelerometer_m_s2", None)
+            if acc is not None:
+                self.log.add_imu(float(smp.t_s), gyr, acc)
+                self._imu_count += 1
+
+    # -- the session ----------------------------------------------------------------------------------
+    def run(self, duration_s: float | None = None) -> PipelineResult:
+        """Open the sources, run until the source ends, ``stop()`` or ``duration_s`` (wall clock); summary."""
+        if self._started:
+            msg = "this pipeline already ran; make a new one"
+            raise RuntimeError(msg)
+        self._started = True
+        wall0 = time.monotonic()
+        self.camera.open()
+        threads: list[threading.Thread] = []
+        error: BaseException | None = None
+        hops = alerts_raised = 0
+        first_t = last_t = math.nan
+        try:
+            estimator = self._estimator_factory(self.camera)
+            if self.imu is not None:
+                self.imu.open()
+                threads.append(threading.Thread(target=self._imu_reader, name="walkmon-imu", daemon=True))
+            threads.insert(0, threading.Thread(target=self._grabber, name="walkmon-grabber", daemon=True))
+            for th in threads:
+                th.start()
+            self.notifier.status(f"waiting for frames from {self.camera.url}")
+            fps_window: collections.deque[float] = collections.deque(maxlen=61)
+            last_angles = (math.nan, math.nan, math.nan)
+            while not self._stop.is_set():
+                self.notifier.watchdog()
+                self.log.maybe_flush()
+                if duration_s is not None and time.monotonic() - wall0 >= duration_s:
+                    self._end_reason = self._end_reason or f"duration {duration_s:g} s reached"
+                    break
+                if self._calibrate.is_set():
+                    self._calibrate.clear()
+                    self.indicators.request_calibration()
+                    _log.info("upright calibration requested: stand still and upright")
+                try:
+                    item = self.queue.get(_GET_TIMEOUT_S)
+                except QueueClosed:
+                    break
+                if self.imu is not None:
+                    self._drain_imu()
+                if item is None:
+                    continue
+                frame = item.frame
+                estimate = estimator.push(frame.image, frame.t_s)
+                done = time.monotonic()
+                latency_ms = (done - item.grabbed_s) * 1000.0
+                self.latency.add(latency_ms)
+                angles = _angles(estimate)
+                last_angles = angles
+                if math.isnan(first_t):
+                    first_t = frame.t_s
+                    self.notifier.ready(f"monitoring {self.camera.url}")
+                last_t = frame.t_s
+                fps_window.append(frame.t_s)
+                self.log.n_dropped = self.queue.dropped
+                self.log.add_frame(frame.t_s, angles, int(getattr(estimate, "n_inliers", -1) or -1),
+                                   str(getattr(estimate, "model", "") or ""),
+                                   _status_text(getattr(estimate, "status", None)), latency_ms)
+                if self.on_frame is not None:
+                    self.on_frame(FrameResult(frame.t_s, angles, latency_ms, estimate, frame.truth_angles_deg))
+                ind = self.indicators.push(frame.t_s, angles)
+                if ind is None:
+                    continue
+                hops += 1
+                events = self.alerts.push(ind)
+                self.log.add_hop(ind)
+                for ev in events:
+                    self.log.add_alert(ev)
+                    alerts_raised += ev.state == "raised"
+                if events and self.sinks is not None:
+                    self.sinks.deliver(events)
+                fps = ((len(fps_window) - 1) / (fps_window[-1] - fps_window[0])
+                       if len(fps_window) > 1 and fps_window[-1] > fps_window[0] else math.nan)
+                if self.on_hop is not None:
+                    self.on_hop(HopReport(ind, tuple(events), self.alerts.active, self.log.n_frames,
+                                          self.queue.dropped, fps, self.latency.percentile(99), last_angles,
+                                          time.monotonic() - wall0))
+            if not self._end_reason:
+                self._end_reason = "source ended" if self.queue.closed else "stopped"
+        except BaseException as exc:
+            error = exc
+            self._end_reason = f"error: {exc}" if not isinstance(exc, KeyboardInterrupt) else "interrupted"
+            raise
+        finally:
+            self._stop.set()
+            self.notifier.stopping()
+            for th in threads:
+                th.join(_JOIN_TIMEOUT_S)
+                if th.is_alive():
+                    _log.error("thread %s did not stop within %.0f s", th.name, _JOIN_TIMEOUT_S)
+            self.camera.close()
+            if self.imu is not None:
+                self.imu.close()
+                self._drain_imu()
+            if self.sinks is not None:
+                self.sinks.close()
+            if self._thread_errors and error is None:
+                self._end_reason = f"error: {self._thread_errors[0]}"
+            self.log.n_dropped = self.queue.dropped
+            self.log.close(self._end_reason, meta={
+                "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
+                "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows})
+        if self._thread_errors:
+            exc0 = self._thread_errors[0]
+            if isinstance(exc0, SourceError):
+                raise exc0
+            msg = f"a pipeline thread failed: {exc0!r}"
+            raise SourceError(msg) from exc0
+        return PipelineResult(
+            session_id=self.log.session_id,
+            end_reason=self._end_reason,
+            frames=self.log.n_frames,
+            dropped=self.queue.dropped,
+            hops=hops,
+            alerts_raised=alerts_raised,
+            duration_s=0.0 if math.isnan(first_t) else float(last_t - first_t),
+            wall_s=time.monotonic() - wall0,
+            latency_p50_ms=self.latency.percentile(50),
+            latency_p99_ms=self.latency.percentile(99),
+            latency_max_ms=self.latency.max_ms,
+            reconnects=self._reconnects,
+            imu_samples=self._imu_count,
+            imu_overflows=self._imu_overflows,
+        )
