@@ -25,6 +25,9 @@ _log = logging.getLogger(__name__)
 COMMAND_MODULES = (
     "walkmon.commands.calibrate",
     "walkmon.commands.indicators",
+    "walkmon.commands.live",
+    "walkmon.commands.sessions",
+    "walkmon.commands.report",
 )
 
 EXIT_USAGE = 2

@@ -1,0 +1,200 @@
+"""``walkmon live``: monitor walking posture from a live camera (and IMU), alert, and log the session."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import logging
+import math
+import signal
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any, TextIO
+
+from walkmon.errors import WalkmonError
+
+NAME = "live"
+HELP = "monitor posture live from a camera (v4l2:, depthai:, file:, sim:), raise alerts, log the session"
+
+_log = logging.getLogger(__name__)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--camera", metavar="SOURCE",
+                   help="camera source, e.g. v4l2:/dev/video0?width=640&height=480&fps=30, depthai:, "
+                        "file:walk.mp4?realtime=1, sim:normal:10,bend:10 (default: from the config)")
+    p.add_argument("--imu", metavar="SOURCE", help="IMU source, e.g. serial:/dev/ttyACM0?baud=115200 or file:imu.csv")
+    p.add_argument("--config", metavar="TOML", help="configuration file (see deploy/walkmon.toml)")
+    p.add_argument("--calib", metavar="YAML", help="camera intrinsics (ROS camera_info YAML)")
+    p.add_argument("--method", choices=("fast", "paper"), help="rotation estimator method (default: config, fast)")
+    p.add_argument("--data-dir", metavar="DIR", help="session database folder (default ~/.local/share/walkmon)")
+    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (default: until the source "
+                   "ends or SIGINT/SIGTERM)")
+    p.add_argument("--status", choices=("auto", "line", "lines", "none"), default="auto",
+                   help="status each hop: 'line' refreshes one terminal line, 'lines' prints one per hop, "
+                        "'auto' = line on a terminal, none otherwise")
+
+
+def status_line(h: Any) -> str:
+    """One-line live status: frames/s, dropped, cadence, posture angles, label, alerts."""
+    ind = h.indicators
+
+    def f(v: float, fmt: str) -> str:
+        return format(v, fmt) if math.isfinite(v) else "  -  "
+
+    p, y, r = ind.posture_deg
+    alerts = ",".join(h.active_alerts) or "-"
+    return (f"t={ind.t_s:7.1f}s {f(h.fps, '4.1f')}fps drop={h.dropped:<4d} cad={f(ind.cadence_spm, '5.1f')}spm "
+            f"pitch={f(p, '+5.1f')} yaw={f(y, '+5.1f')} roll={f(r, '+5.1f')} {ind.label:<18s} alert={alerts}")
+
+
+class _Status:
+    def __init__(self, mode: str, stream: TextIO) -> None:
+        if mode == "auto":
+            mode = "line" if stream.isatty() else "none"
+        self.mode, self.stream, self.width = mode, stream, 0
+
+    def __call__(self, h: Any) -> None:
+        if self.mode == "none":
+            return
+        line = status_line(h)
+        if self.mode == "line":
+            self.stream.write("\r" + line.ljust(self.width))
+            self.width = len(line)
+        else:
+            self.stream.write(line + "\n")
+        self.stream.flush()
+
+    def end(self) -> None:
+        if self.mode == "line" and self.width:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+@contextlib.contextmanager
+def _signals(pipeline: Any) -> Iterator[None]:
+    """SIGINT/SIGTERM finish the session cleanly; SIGUSR1 re-takes the upright calibration."""
+    previous: dict[int, Any] = {}
+
+    def on_stop(signum: int, _frame: object) -> None:
+        pipeline.stop(f"signal {signal.Signals(signum).name}")
+
+    def on_usr1(_signum: int, _frame: object) -> None:
+        pipeline.request_calibration()
+
+    handlers = {signal.SIGINT: on_stop, signal.SIGTERM: on_stop}
+    if hasattr(signal, "SIGUSR1"):
+        handlers[signal.SIGUSR1] = on_usr1
+    try:
+        for sig, fn in handlers.items():
+            previous[sig] = signal.signal(sig, fn)
+    except ValueError:  # not in the main thread (e.g. called from a test thread): no signal handling
+        previous.clear()
+    try:
+        yield
+    finally:
+        for sig, fn in previous.items():
+            signal.signal(sig, fn)
+
+
+class CameraAwareEstimator:
+    """Builds the rotation estimator on the first frame, when the frame size is known.
+
+    Intrinsics: ``--calib``/config file (scaled to the frame size), else the source's own (simulator, OAK),
+    else the documented default for ``hfov_deg``.
+    """
+
+    def __init__(self, source: Any, calib: Any, method: str, hfov_deg: float) -> None:
+        self._source, self._calib, self._method, self._hfov = source, calib, method, hfov_deg
+        self._est: Any = None
+
+    def _build(self, frame: Any) -> Any:
+        from walkmon.calibration import default_camera  # noqa: PLC0415
+        from walkmon.pipeline import make_estimator  # noqa: PLC0415
+
+        h, w = frame.shape[:2]
+        cam = self._calib or self._source.camera_model()
+        if cam is None:
+            cam = default_camera(w, h, self._hfov)
+            _log.info("no calibration: default intrinsics for a %g deg horizontal field of view", self._hfov)
+        elif (cam.width_px, cam.height_px) != (w, h):
+            _log.info("calibration is for %dx%d, frames are %dx%d: scaled", cam.width_px, cam.height_px, w, h)
+            cam = cam.scaled_to(w, h)
+        return make_estimator(cam, self._method)
+
+    def push(self, frame: Any, t_s: float) -> Any:
+        if self._est is None:
+            self._est = self._build(frame)
+        return self._est.push(frame, t_s)
+
+    def reset(self) -> None:
+        if self._est is not None:
+            self._est.reset()
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        return _run(args)
+    except (WalkmonError, OSError, KeyboardInterrupt):
+        raise
+    except Exception as exc:
+        _log.debug("unexpected error", exc_info=True)
+        msg = f"unexpected error: {exc!r} (run with -vv for details)"
+        raise WalkmonError(msg) from exc
+
+
+def _run(args: argparse.Namespace) -> int:
+    from walkmon.alert_sinks import AlertSinks  # noqa: PLC0415
+    from walkmon.alerts import AlertStage  # noqa: PLC0415
+    from walkmon.calibration import read_camera_yaml  # noqa: PLC0415
+    from walkmon.config import DEFAULT_CONFIG, config_to_dict, read_config  # noqa: PLC0415
+    from walkmon.drivers.sources import open_camera, open_imu  # noqa: PLC0415
+    from walkmon.live_indicators import LiveIndicatorStage  # noqa: PLC0415
+    from walkmon.pipeline import LivePipeline  # noqa: PLC0415
+    from walkmon.sdnotify import Notifier  # noqa: PLC0415
+    from walkmon.session_log import SessionLog, default_data_dir  # noqa: PLC0415
+
+    cfg = read_config(args.config) if args.config else DEFAULT_CONFIG
+    cfg = dataclasses.replace(
+        cfg,
+        camera=dataclasses.replace(cfg.camera, url=args.camera or cfg.camera.url, calib=args.calib or cfg.camera.calib),
+        imu=dataclasses.replace(cfg.imu, url=args.imu if args.imu is not None else cfg.imu.url),
+        rotation=dataclasses.replace(cfg.rotation, method=args.method or cfg.rotation.method),
+        session=dataclasses.replace(cfg.session, data_dir=args.data_dir or cfg.session.data_dir),
+    )
+    if args.duration is not None and not args.duration > 0:
+        msg = f"--duration must be > 0, got {args.duration}"
+        raise WalkmonError(msg)
+    camera = open_camera(cfg.camera.url)
+    imu = open_imu(cfg.imu.url) if cfg.imu.url else None
+    calib = read_camera_yaml(cfg.camera.calib) if cfg.camera.calib else None
+    data_dir = Path(cfg.session.data_dir).expanduser() if cfg.session.data_dir else default_data_dir()
+    stream = sys.stderr
+    status = _Status(args.status, stream)
+    log = SessionLog(data_dir, kind="live", camera=cfg.camera.url, imu=cfg.imu.url, config=config_to_dict(cfg),
+                     flush_interval_s=cfg.session.flush_interval_s, log_frames=cfg.session.log_frames)
+    pipeline = LivePipeline(
+        camera,
+        lambda src: CameraAwareEstimator(src, calib, cfg.rotation.method, cfg.camera.hfov_deg),
+        indicators=LiveIndicatorStage(cfg.indicators),
+        alerts=AlertStage(cfg.alerts),
+        session_log=log,
+        sinks=AlertSinks(cfg.sinks, stream=stream if cfg.sinks.terminal else None),
+        imu_source=imu,
+        settings=cfg.pipeline,
+        notifier=Notifier(),
+        on_hop=status,
+    )
+    _log.info("session %d: %s -> %s", log.session_id, cfg.camera.url, log.path)
+    try:
+        with _signals(pipeline):
+            res = pipeline.run(args.duration)
+    finally:
+        status.end()
+    sys.stdout.write(
+        f"session {res.session_id}: {res.duration_s:.1f} s, {res.frames} frames, {res.dropped} dropped, "
+        f"{res.hops} hops, {res.alerts_raised} alerts, latency p99 {res.latency_p99_ms:.0f} ms "
+        f"({res.end_reason}) -> {log.path}\n")
+    return 0

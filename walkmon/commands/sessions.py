@@ -1,0 +1,113 @@
+"""``walkmon sessions list|export``: the session history in the data directory's database."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from walkmon.errors import ConfigError
+
+NAME = "sessions"
+HELP = "list logged sessions, or export one as CSV or Parquet"
+
+#: Exported file stem per table (frames export as angles.* so 'walkmon indicators' reads them directly).
+EXPORT_NAMES = {"frames": "angles", "hops": "hops", "alerts": "alerts", "imu": "imu", "calibrations": "calibrations"}
+_RENAME = {"t_s": "t"}
+_TEXT_COLUMNS = {"model", "status", "label", "json", "kind", "state", "message", "reason"}
+
+
+def _data_dir_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--data-dir", metavar="DIR", help="session database folder (default ~/.local/share/walkmon)")
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="sessions_command", metavar="ACTION", parser_class=type(p))
+    sub.required = True
+    lp = sub.add_parser("list", help="one line per session")
+    _data_dir_arg(lp)
+    ep = sub.add_parser("export", help="write a session's tables to a folder")
+    ep.add_argument("session_id", type=int, metavar="ID")
+    ep.add_argument("--format", choices=("csv", "parquet"), default="csv")
+    ep.add_argument("--out", required=True, metavar="DIR")
+    _data_dir_arg(ep)
+
+
+def data_dir_of(args: argparse.Namespace) -> Path:
+    from walkmon.session_log import default_data_dir  # noqa: PLC0415
+
+    return Path(args.data_dir).expanduser() if getattr(args, "data_dir", None) else default_data_dir()
+
+
+def _list(args: argparse.Namespace) -> int:
+    from walkmon.session_log import list_sessions  # noqa: PLC0415
+
+    sessions = list_sessions(data_dir_of(args))
+    out = sys.stdout
+    out.write(f"{'id':>4}  {'kind':<7} {'started (UTC)':<23} {'duration':>9} {'frames':>7} {'dropped':>7} "
+              f"{'hops':>5} {'alerts':>6}  {'end':<24} source\n")
+    for s in sessions:
+        end = s.end_reason if s.ended_utc else "(running or cut off)"
+        out.write(f"{s.id:>4}  {s.kind:<7} {s.started_utc[:23]:<23} {s.duration_s:>8.1f}s {s.n_frames:>7} "
+                  f"{s.n_dropped:>7} {s.n_hops:>5} {s.n_alerts:>6}  {end[:24]:<24} {s.camera}\n")
+    if not sessions:
+        out.write("(no sessions yet)\n")
+    return 0
+
+
+def _clean(col: str, values: list[Any]) -> list[Any]:
+    if col in _TEXT_COLUMNS:
+        return ["" if v is None else str(v) for v in values]
+    return [math.nan if v is None else v for v in values]
+
+
+def export_session(data_dir: Path, session_id: int, out_dir: Path, fmt: str = "csv") -> list[Path]:
+    """Write every table of one session (+ session.json) to ``out_dir``; the written paths."""
+    from walkmon.session_log import open_database, read_session_table, session_record  # noqa: PLC0415
+
+    if fmt == "parquet":
+        try:
+            import pyarrow as pa  # noqa: PLC0415
+            import pyarrow.parquet as pq  # noqa: PLC0415
+        except ImportError as exc:
+            msg = "parquet export needs pyarrow (pip install pyarrow), or use --format csv"
+            raise ConfigError(msg) from exc
+    conn = open_database(data_dir, create=False)
+    try:
+        record = session_record(conn, session_id)
+        tables = {name: read_session_table(conn, session_id, name) for name in EXPORT_NAMES}
+    finally:
+        conn.close()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, cols in tables.items():
+        data = {_RENAME.get(c, c): _clean(c, v) for c, v in cols.items()}
+        if name == "hops":
+            data.pop("json", None)
+        path = out_dir / f"{EXPORT_NAMES[name]}.{fmt}"
+        if fmt == "csv":
+            with path.open("w", newline="", encoding="utf-8") as fh:
+                w = csv.writer(fh)
+                w.writerow(list(data))
+                w.writerows(zip(*data.values(), strict=True))
+        else:
+            pq.write_table(pa.table(data), path)
+        written.append(path)
+    meta = out_dir / "session.json"
+    meta.write_text(json.dumps(record, indent=2, sort_keys=True, default=str) + "\n", encoding="utf-8")
+    written.append(meta)
+    return written
+
+
+def _export(args: argparse.Namespace) -> int:
+    written = export_session(data_dir_of(args), args.session_id, Path(args.out), args.format)
+    sys.stdout.write(f"session {args.session_id}: wrote {', '.join(p.name for p in written)} to {args.out}\n")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    return _export(args) if args.sessions_command == "export" else _list(args)
