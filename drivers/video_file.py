@@ -1,0 +1,96 @@
+"""Reading a video file frame by frame: ``VideoFile(path)`` iterates ``(t_s, frame_bgr)``.
+
+Frame ``i`` has time ``t_s = i / fps`` with ``fps`` from the container (so two analyses of one file agree, and
+``t`` starts at 0 with the first frame). A missing file raises :class:`~walkmon.errors.InvalidInputError`; a
+file OpenCV cannot open or that yields no frame raises :class:`~walkmon.errors.SourceError`; both carry one
+line naming the file. ``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
+0 lets FFmpeg choose).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from types import TracebackType
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walkmon.errors import InvalidInputError, SourceError
+
+__all__ = ["DEFAULT_FPS", "VideoFile"]
+
+_log = logging.getLogger(__name__)
+
+#: Frame rate assumed when the container does not give a plausible one.
+DEFAULT_FPS = 30.0
+
+
+class VideoFile:
+    """An open video file. Iterate for ``(t_s, frame)``; use as a context manager or call :meth:`close`."""
+
+    def __init__(self, path: str | Path, *, decode_threads: int = 0) -> None:
+        import cv2  # noqa: PLC0415
+
+        # FFmpeg prints its own lines ("moov atom not found") straight to stderr; users get our one line
+        # instead. Set OPENCV_FFMPEG_LOGLEVEL yourself to see them (it is only defaulted here).
+        os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+        self.path = Path(path)
+        if not self.path.exists():
+            msg = f"{self.path}: no such video file"
+            raise InvalidInputError(msg)
+        if not self.path.is_file():
+            msg = f"{self.path}: not a file"
+            raise InvalidInputError(msg)
+        params = [cv2.CAP_PROP_N_THREADS, int(decode_threads)] if decode_threads > 0 else []
+        cap = cv2.VideoCapture(str(self.path), cv2.CAP_ANY, params)
+        if not cap.isOpened():
+            cap.release()
+            msg = f"{self.path}: cannot open as a video (unknown format or corrupt file)"
+            raise SourceError(msg)
+        fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        if not (math.isfinite(fps) and 1.0 <= fps <= 1000.0):
+            _log.warning("%s: container reports %.3g fps; assuming %g", self.path, fps, DEFAULT_FPS)
+            fps = DEFAULT_FPS
+        self.fps = fps
+        self.width_px = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
+        self.height_px = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
+        #: Frame count from the container header (may be 0 or approximate for some formats).
+        self.frame_count = max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
+        self._cap = cap
+        self._index = 0
+
+    def read(self) -> tuple[float, NDArray[np.uint8]] | None:
+        """The next ``(t_s, frame_bgr)``, or None at the end of the file."""
+        if self._cap is None:
+            msg = f"{self.path}: video is closed"
+            raise SourceError(msg)
+        ok, frame = self._cap.read()
+        if not ok or frame is None:
+            if self._index == 0:
+                msg = f"{self.path}: no decodable frames (corrupt or empty video)"
+                raise SourceError(msg)
+            return None
+        t_s = self._index / self.fps
+        self._index += 1
+        return t_s, frame
+
+    def __iter__(self) -> Iterator[tuple[float, NDArray[np.uint8]]]:
+        while (item := self.read()) is not None:
+            yield item
+
+    def close(self) -> None:
+        if self._cap is not None:
+            self._cap.release()
+            self._cap = None
+
+    def __enter__(self) -> VideoFile:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
