@@ -1,0 +1,133 @@
+"""report.html: self-contained, all figures embedded, renders in headless Chromium; the indicators CLI end to end."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from walkmon.cli import main
+from walkmon.indicators import compute_indicators
+from walkmon.report import write_report
+from walkmon.tables import write_table
+
+FS = 30.0
+
+
+def _walk(pitch_offset: float = 0.0, seconds: float = 14.0) -> tuple[np.ndarray, np.ndarray]:
+    t = np.arange(0.0, seconds, 1 / FS)
+    up = np.clip(t - 2.0, 0, 1)
+    down = np.clip(seconds - 2.0 - t, 0, 1)
+    env = (0.5 - 0.5 * np.cos(np.pi * up)) * (0.5 - 0.5 * np.cos(np.pi * down))
+    f = 1.75
+    pitch = env * (pitch_offset + np.cos(2 * np.pi * f * t))
+    yaw = env * 1.5 * np.sin(np.pi * f * t) + 0.2 * t
+    roll = env * 2.0 * np.sin(np.pi * f * t + 0.3)
+    return t, np.column_stack([pitch, yaw, roll])
+
+
+@pytest.fixture(scope="module")
+def report_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("report")
+    t, a = _walk(-12.0)
+    base = compute_indicators(*_walk(0.0))
+    ind = compute_indicators(t, a, baseline=base)
+    return write_report(out / "report.html", t, a, ind, baseline=base, meta={"walk": "synthetic bend", "seed": 3})
+
+
+def test_report_is_self_contained_with_every_figure(report_path: Path) -> None:
+    text = report_path.read_text(encoding="utf-8")
+    assert text.startswith("<!DOCTYPE html>")
+    images = re.findall(r"src='data:image/png;base64,([A-Za-z0-9+/=]+)'", text)
+    assert len(images) == 5  # raw+trend, detrended, windowed, spectra, extremums
+    for b64 in images:
+        png = base64.b64decode(b64)
+        assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 5000
+    # nothing fetched from outside the file
+    assert not re.search(r"""(src|href)=['"](?!data:)""", text)
+    for needle in ("bend", "baseline", "difference", "synthetic bend", "cadence", "&rho;&#772;<sub>p</sub>"):
+        assert needle in text
+
+
+def _chromium() -> str | None:
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def test_report_renders_in_headless_chromium(report_path: Path, tmp_path: Path) -> None:
+    browser = _chromium()
+    if browser is None:
+        pytest.skip("chromium is not installed (Debian: apt-get install -y chromium); cannot check the rendering")
+    png = tmp_path / "shot.png"
+    width, height = 1000, 2400
+    with tempfile.TemporaryDirectory() as profile:
+        cmd = [
+            browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+            "--no-first-run", f"--user-data-dir={profile}", f"--screenshot={png}", f"--window-size={width},{height}",
+            "--hide-scrollbars", report_path.as_uri(),
+        ]
+        subprocess.run(cmd, capture_output=True, timeout=90, check=False)
+    assert png.is_file(), "chromium wrote no screenshot"
+    import matplotlib.image  # noqa: PLC0415
+
+    img = matplotlib.image.imread(png)
+    assert img.shape[:2] == (height, width)
+    rgb = img[..., :3]
+    # not blank: many distinct colours, and plenty of non-white pixels (text, tables, the coloured curves)
+    assert np.mean(np.any(rgb < 0.9, axis=-1)) > 0.03
+    assert len(np.unique((rgb * 255).astype(np.uint8).reshape(-1, 3), axis=0)) > 50
+    # the curves' colours (pitch blue, yaw green, roll red) are on the page: the embedded figures were drawn
+    for colour in ((0x1F, 0x77, 0xB4), (0x2C, 0xA0, 0x2C), (0xD6, 0x27, 0x28)):
+        assert np.all(np.abs(rgb - np.array(colour) / 255) < 0.1, axis=-1).sum() > 20, colour
+
+
+def test_indicators_cli_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    t, a = _walk(0.0)
+    csv = tmp_path / "normal" / "truth.csv"
+    write_table(csv, {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2], "x": t * 0, "y": t * 0, "z": t})
+    assert main(["indicators", str(csv), "--out", str(tmp_path / "n")]) == 0
+    doc = json.loads((tmp_path / "n" / "indicators.json").read_text())
+    assert doc["classification"]["label"] == "normal"
+    assert doc["cadence_spm"] == pytest.approx(105.0, rel=0.005)
+    assert (tmp_path / "n" / "report.html").stat().st_size > 50_000
+    t, a = _walk(-12.0)
+    csv2 = tmp_path / "bent" / "angles.csv"
+    write_table(csv2, {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2]})
+    rc = main(["indicators", str(csv2), "--out", str(tmp_path / "b"), "--baseline",
+               str(tmp_path / "n" / "indicators.json"), "--mode", "walkmon"])
+    assert rc == 0
+    doc = json.loads((tmp_path / "b" / "indicators.json").read_text())
+    assert doc["classification"]["label"] == "bend"
+    assert doc["axes"]["pitch"]["inclination_mean"] == pytest.approx(-12.0, abs=0.1)
+    assert "bend" in capsys.readouterr().out
+    assert main(["indicators", str(csv2), "--out", str(tmp_path / "p"), "--mode", "paper"]) == 0
+    assert json.loads((tmp_path / "p" / "indicators.json").read_text())["mode"] == "paper"
+
+
+@pytest.mark.parametrize(
+    ("content", "extra"),
+    [(None, []), ("t,pitch,yaw\n0,1,2\n", []), ("t,pitch,yaw,roll\n0,1,x,2\n", []),
+     ("t,pitch,yaw,roll\n0,0,0,0\n0.1,0,0,0\n", ["--baseline", "MISSING"])],
+)
+def test_indicators_cli_errors_are_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], content: str | None, extra: list[str]
+) -> None:
+    csv = tmp_path / "angles.csv"
+    if content is not None:
+        csv.write_text(content)
+    extra = [str(tmp_path / "missing.json") if e == "MISSING" else e for e in extra]
+    rc = main(["indicators", str(csv), "--out", str(tmp_path / "o"), *extra])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert err.count("\n") == 1 and err.startswith("walkmon indicators: error:")
+    assert "Traceback" not in err
