@@ -24,6 +24,7 @@ _log = logging.getLogger(__name__)
 #: Subcommand modules, in the order ``walkmon --help`` lists them.
 COMMAND_MODULES = (
     "walkmon.commands.calibrate",
+    "walkmon.commands.simulate",
     "walkmon.commands.analyze",
     "walkmon.commands.indicators",
     "walkmon.commands.live",

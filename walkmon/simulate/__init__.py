@@ -1,7 +1,38 @@
-"""Synthetic walking sessions with ground truth: a gait model, an IMU model and a 3-D street renderer."""
+"""Synthetic walking sessions with ground truth: a gait model, an IMU model and a 3-D street renderer.
+
+``simulate(out_dir, walk="normal", seconds=16.0, seed=0, ...)`` writes video.mp4, truth.csv, imu.csv,
+camera.yaml and meta.json; ``iter_frames(walk, seconds, seed, ...)`` yields ``(t_s, frame_bgr,
+truth_angles_deg)`` in memory.
+"""
 
 from __future__ import annotations
 
-from walkmon.simulate.gait import WALK_TYPES, GaitModel, parse_walk_script
+from walkmon.simulate.gait import STANDING_S, WALK_TYPES, GaitModel, parse_walk_script
+from walkmon.simulate.imu import DEFAULT_IMU_SETTINGS, ImuSamples, ImuSettings, simulate_imu
+from walkmon.simulate.render import DEFAULT_RENDER_SETTINGS, Renderer, RenderSettings
+from walkmon.simulate.session import (
+    SimulatedSession,
+    SimulationResult,
+    iter_frames,
+    simulate,
+    simulation_camera,
+)
 
-__all__ = ["WALK_TYPES", "GaitModel", "parse_walk_script"]
+__all__ = [
+    "DEFAULT_IMU_SETTINGS",
+    "DEFAULT_RENDER_SETTINGS",
+    "STANDING_S",
+    "WALK_TYPES",
+    "GaitModel",
+    "ImuSamples",
+    "ImuSettings",
+    "RenderSettings",
+    "Renderer",
+    "SimulatedSession",
+    "SimulationResult",
+    "iter_frames",
+    "parse_walk_script",
+    "simulate",
+    "simulate_imu",
+    "simulation_camera",
+]

@@ -1,0 +1,388 @@
+"""Per-pixel ray casting of the street scene: images a camera at a known pose would see.
+
+Every pixel's viewing ray is computed once from the camera model (exactly inverting its lens distortion, so the
+rendered image *is* distorted the way ``CameraModel.pixels_from_camera_points`` projects), rotated into the world
+for each pose and intersected with the scene's planes. Texture comes from the mip level that matches the pixel's
+footprint on the surface (trilinear filtering, no shimmer at distance). A video frame averages samples
+along each pixel's motion during the exposure (motion blur), then gets a slight defocus, vignetting and shot/read noise.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from walkmon.calibration import CameraModel
+from walkmon.errors import ConfigError
+from walkmon.simulate.scene import StreetScene, Texture
+
+__all__ = ["DEFAULT_RENDER_SETTINGS", "RenderSettings", "Renderer", "SURFACES", "pixel_rays"]
+
+_log = logging.getLogger(__name__)
+
+#: Resolution of the wall-height and skyline lookup tables, metres.
+_LUT_STEP_M = 0.01
+
+#: Surface labels of :meth:`Renderer.cast` (index = label; -1 means sky).
+SURFACES = ("ground", "left_wall", "right_wall", "far")
+
+
+@dataclass(frozen=True, slots=True)
+class RenderSettings:
+    """Camera effects. Motion blur over ``exposure_s`` centred on the frame time: each pixel is averaged along its
+    own image motion with one sample per ``blur_step_px`` of motion (at most ``max_blur_taps``); noise in digital
+    numbers (0-255): standard deviation ``sqrt(read_noise_dn² + shot_noise_gain * value)``."""
+
+    exposure_s: float = 0.008
+    max_blur_taps: int = 8
+    blur_step_px: float = 1.0
+    defocus_sigma_px: float = 0.55
+    vignetting: float = 0.25
+    read_noise_dn: float = 1.5
+    shot_noise_gain: float = 0.03
+    fog_distance_m: float = 250.0
+    lod_bias: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (0.0 <= self.exposure_s <= 0.1 and 1 <= self.max_blur_taps <= 32 and self.blur_step_px > 0):
+            msg = f"invalid render settings: {self}"
+            raise ConfigError(msg)
+        if min(self.defocus_sigma_px, self.vignetting, self.read_noise_dn, self.shot_noise_gain) < 0:
+            msg = f"render noise/blur settings must be >= 0: {self}"
+            raise ConfigError(msg)
+
+
+DEFAULT_RENDER_SETTINGS = RenderSettings()
+
+
+def pixel_rays(camera: CameraModel) -> NDArray[np.float64]:
+    """Unit viewing rays (H*W, 3) in the camera frame of every pixel centre, row-major.
+
+    The lens distortion is inverted to convergence (OpenCV's default undistortion stops after 5 iterations,
+    which is not exact for strong distortion), so projecting the rays back gives the pixel positions.
+    """
+    w, h = camera.width_px, camera.height_px
+    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
+    px = np.stack([u.ravel(), v.ravel()], axis=1).reshape(-1, 1, 2)
+    if camera.has_distortion:
+        crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+        if camera.distortion_model == "equidistant":
+            xy = cv2.fisheye.undistortPoints(px, camera.camera_matrix, camera.distortion_coefficients, criteria=crit)
+        else:
+            xy = cv2.undistortPointsIter(px, camera.camera_matrix, camera.distortion_coefficients, None, None, crit)
+        xy = xy.reshape(-1, 2)
+    else:
+        K = camera.camera_matrix
+        xy = np.stack([(px[:, 0, 0] - K[0, 2]) / K[0, 0], (px[:, 0, 1] - K[1, 2]) / K[1, 1]], axis=1)
+    rays = np.concatenate([xy, np.ones((xy.shape[0], 1))], axis=1)
+    return rays / np.linalg.norm(rays, axis=1, keepdims=True)
+
+
+_PAD = 2
+
+
+@dataclass(frozen=True, slots=True)
+class _MipAtlas:
+    """All mip levels of a texture in one image, each padded with a wrapped border, so a trilinear lookup is two
+    ``cv2.remap`` calls (floor level and the next) whatever level each pixel needs."""
+
+    image: NDArray[np.uint8]
+    offset_x: NDArray[np.float32]  # per level: atlas column of the level's texel (0, 0)
+    offset_y: NDArray[np.float32]
+    width: NDArray[np.float32]
+    height: NDArray[np.float32]
+    n_levels: int
+    scale: NDArray[np.float32]
+    inv_width: NDArray[np.float32]
+    inv_height: NDArray[np.float32]
+
+    @classmethod
+    def from_texture(cls, tex: Texture) -> _MipAtlas:
+        levels = [np.pad(lv, ((_PAD, _PAD), (_PAD, _PAD), (0, 0)), mode="wrap") for lv in tex.levels]
+        h0, w0 = levels[0].shape[:2]
+        rest_h = sum(lv.shape[0] for lv in levels[1:])
+        rest_w = max((lv.shape[1] for lv in levels[1:]), default=0)
+        atlas = np.zeros((max(h0, rest_h), w0 + rest_w, 3), np.uint8)
+        atlas[:h0, :w0] = levels[0]
+        ox, oy = [0], [0]
+        y = 0
+        for lv in levels[1:]:
+            atlas[y : y + lv.shape[0], w0 : w0 + lv.shape[1]] = lv
+            ox.append(w0)
+            oy.append(y)
+            y += lv.shape[0]
+        f32 = np.float32
+        width = np.array([lv.shape[1] for lv in tex.levels], f32)
+        height = np.array([lv.shape[0] for lv in tex.levels], f32)
+        n = len(tex.levels)
+        # the (u + 0.5) * scale - 0.5 texel-centre shift: fold the -0.5 into the offsets
+        return cls(
+            atlas,
+            np.array(ox, f32) + _PAD - f32(0.5),
+            np.array(oy, f32) + _PAD - f32(0.5),
+            width,
+            height,
+            n,
+            np.array([0.5**k for k in range(n)], f32),
+            (1.0 / width).astype(f32),
+            (1.0 / height).astype(f32),
+        )
+
+    def sample(self, u: NDArray[np.float32], v: NDArray[np.float32], level: NDArray[np.float32]) -> NDArray:
+        """Trilinear lookup at level-0 texel coordinates (u right, v down), wrapping; (n, 3) float32."""
+        level = np.clip(level, np.float32(0.0), np.float32(self.n_levels - 1.0001))
+        l0 = level.astype(np.int32)
+        frac = (level - l0)[:, None]
+        up, vp = u + np.float32(0.5), v + np.float32(0.5)
+        acc = None
+        for lk in (l0, l0 + 1):
+            scale = self.scale[lk]
+            mu = up * scale
+            mv = vp * scale
+            # wrap into [0, size): x - floor(x / size) * size (np.mod is several times slower)
+            mu -= np.floor(mu * self.inv_width[lk]) * self.width[lk]
+            mv -= np.floor(mv * self.inv_height[lk]) * self.height[lk]
+            mu += self.offset_x[lk]
+            mv += self.offset_y[lk]
+            vals = _remap_points(self.image, mu, mv)
+            acc = vals if acc is None else acc + (vals - acc) * frac
+        return acc
+
+
+def _remap_points(img: NDArray[np.uint8], mu: NDArray[np.float32], mv: NDArray[np.float32]) -> NDArray[np.float32]:
+    """Bilinear samples of ``img`` at n points, (n, 3) float32 (cv2.remap over a (rows, 512) map)."""
+    n = mu.shape[0]
+    cols = 512
+    rows = -(-n // cols)
+    pad = rows * cols - n
+    if pad:
+        mu = np.concatenate([mu, np.zeros(pad, np.float32)])
+        mv = np.concatenate([mv, np.zeros(pad, np.float32)])
+    res = cv2.remap(img, mu.reshape(rows, cols), mv.reshape(rows, cols), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return res.reshape(-1, 3)[:n].astype(np.float32)
+
+
+class Renderer:
+    """Renders ``scene`` through ``camera`` at given poses (orientation relative to frame 0 = world, position m).
+
+    ``cast(R, p)`` gives per-pixel hit distance, surface label and world hit points (for geometry tests);
+    ``render_ideal`` a noise-free float image; ``render_frame`` a video frame with blur and noise.
+    """
+
+    def __init__(self, camera: CameraModel, scene: StreetScene, settings: RenderSettings = DEFAULT_RENDER_SETTINGS):
+        self.camera = camera
+        self.scene = scene
+        self.settings = settings
+        rays = pixel_rays(camera)
+        self._atlases = [_MipAtlas.from_texture(t) for t in (scene.ground, scene.left_wall, scene.right_wall, scene.far)]
+        self._rays_planar = tuple(np.ascontiguousarray(rays[:, i], dtype=np.float32) for i in range(3))
+        # wall heights along z and the far skyline along x as lookup tables (faster than searchsorted)
+        zq = (np.arange(int(np.ceil(scene.block_edges_z_m[-1] / _LUT_STEP_M))) + 0.5) * _LUT_STEP_M
+        blk = np.clip(np.searchsorted(scene.block_edges_z_m, zq, side="right") - 1, 0, scene.left_heights_m.size - 1)
+        self._left_lut = scene.left_heights_m[blk].astype(np.float32)
+        self._right_lut = scene.right_heights_m[blk].astype(np.float32)
+        x0 = scene.far_edges_x_m[0]
+        xq = x0 + (np.arange(int(np.ceil((scene.far_edges_x_m[-1] - x0) / _LUT_STEP_M))) + 0.5) * _LUT_STEP_M
+        blk = np.clip(np.searchsorted(scene.far_edges_x_m, xq, side="right") - 1, 0, scene.far_heights_m.size - 1)
+        self._far_lut = scene.far_heights_m[blk].astype(np.float32)
+        h, w = camera.height_px, camera.width_px
+        r3 = rays.reshape(h, w, 3)
+        # angular size of each pixel (rad) from neighbouring rays, for the mip level
+        dx = np.linalg.norm(np.diff(r3, axis=1), axis=2)
+        dy = np.linalg.norm(np.diff(r3, axis=0), axis=2)
+        dx = np.concatenate([dx, dx[:, -1:]], axis=1)
+        dy = np.concatenate([dy, dy[-1:, :]], axis=0)
+        self._lod = (np.log2(np.sqrt(dx * dy)) + settings.lod_bias).ravel().astype(np.float32)
+        # vignetting from the ray angle (cos^4-like falloff, scaled)
+        cos_t = rays[:, 2].reshape(h, w)
+        self._vignette = (1.0 - settings.vignetting * (1.0 - cos_t**4) / max(1e-6, 1.0 - float(cos_t.min()) ** 4))
+        self._vignette = self._vignette.astype(np.float32)[..., None]
+        gx, gy = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
+        self._grid = (gx, gy)
+        self._noise_bank: list[NDArray[np.float32]] | None = None
+
+    # ------------------------------------------------------------------------------------------ geometry
+    def _world_rays(self, rotation: NDArray[np.float64]) -> tuple[NDArray[np.float32], ...]:
+        """World directions of the pixel rays, as three contiguous float32 arrays (x, y, z)."""
+        R = np.asarray(rotation, np.float64)
+        rx, ry, rz = self._rays_planar
+        return tuple(
+            (np.float32(R[i, 0]) * rx + np.float32(R[i, 1]) * ry + np.float32(R[i, 2]) * rz) for i in range(3)
+        )
+
+    def cast(
+        self, rotation: NDArray[np.float64], position_m: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float32], NDArray[np.int8], tuple[NDArray[np.float32], ...]]:
+        """Ray-cast one pose: distance_m (N,), label (N,) int8 (index into SURFACES, -1 = sky), world rays."""
+        sc = self.scene
+        dxs, dys, dzs = self._world_rays(rotation)
+        px, py, pz = (float(v) for v in position_m)
+        H = sc.camera_height_m
+        n = dxs.size
+        dist = np.full(n, np.inf, np.float32)
+        label = np.full(n, -1, np.int8)
+        # ground: y = H
+        np.divide(np.float32(H - py), dys, out=dist, where=dys > 1e-5)
+        label[np.isfinite(dist)] = 0
+        # side walls, up to each block's height (the block layout repeats along z)
+        period = float(sc.block_edges_z_m[-1])
+        pz_mod = np.float32(pz % period)
+        for lab, xw, dirmask, lut in (
+            (1, sc.left_wall_x_m, dxs < -1e-5, self._left_lut),
+            (2, sc.right_wall_x_m, dxs > 1e-5, self._right_lut),
+        ):
+            s = np.full(n, np.inf, np.float32)
+            np.divide(np.float32(xw - px), dxs, out=s, where=dirmask)
+            cand = np.nonzero(s < dist)[0]
+            s_c = s[cand]
+            zc = pz_mod + s_c * dzs[cand]
+            height = np.float32(H - py) - s_c * dys[cand]
+            blk = (np.mod(zc, np.float32(period)) * np.float32(1.0 / _LUT_STEP_M)).astype(np.int32)
+            ok = (height >= 0) & (height <= lut[np.clip(blk, 0, lut.size - 1)])
+            dist[cand[ok]] = s_c[ok]
+            label[cand[ok]] = lab
+        # far buildings: z = far_z, skyline from far_heights
+        s = np.full(n, np.inf, np.float32)
+        np.divide(np.float32(sc.far_z_m - pz), dzs, out=s, where=dzs > 1e-5)
+        cand = np.nonzero(s < dist)[0]
+        s_c = s[cand]
+        xc = np.float32(px - sc.far_edges_x_m[0]) + s_c * dxs[cand]
+        height = np.float32(H - py) - s_c * dys[cand]
+        blk = np.clip((xc * np.float32(1.0 / _LUT_STEP_M)).astype(np.int32), 0, self._far_lut.size - 1)
+        ok = (height >= 0) & (height <= self._far_lut[blk])
+        dist[cand[ok]] = s_c[ok]
+        label[cand[ok]] = 3
+        return dist, label, (dxs, dys, dzs)
+
+    def hit_points(self, rotation: NDArray[np.float64], position_m: NDArray[np.float64]) -> NDArray[np.float64]:
+        """World points (H, W, 3) seen by each pixel (inf for sky)."""
+        dist, _, D = self.cast(rotation, position_m)
+        d = dist.astype(np.float64)
+        pts = np.stack([float(position_m[i]) + d * D[i].astype(np.float64) for i in range(3)], axis=1)
+        pts[~np.isfinite(d)] = np.inf
+        return pts.reshape(self.camera.height_px, self.camera.width_px, 3)
+
+    # --------------------------------------------------------------------------------------------- shading
+    def render_ideal(self, rotation: NDArray[np.float64], position_m: NDArray[np.float64]) -> NDArray[np.float32]:
+        """Noise-free, blur-free BGR float32 image (H, W, 3), values 0-255."""
+        return self._shade(rotation, position_m)[0]
+
+    def render_blurred(
+        self, rotations: NDArray[np.float64], positions_m: NDArray[np.float64], n_taps: int
+    ) -> NDArray[np.float32]:
+        """Motion-blurred noise-free image over an exposure from pose 0 (start) to pose 2 (end), centre pose 1.
+
+        The image is rendered once at the centre pose; every pixel's 3-D point is projected into the start and
+        end poses, and the image is averaged along that per-pixel motion (``n_taps`` samples): the same as
+        averaging sub-exposures, to first order, at a fraction of the cost.
+        """
+        R, P = np.asarray(rotations, float), np.asarray(positions_m, float)
+        img, dist, D = self._shade(R[1], P[1])
+        if n_taps <= 1:
+            return img
+        d = np.where(np.isfinite(dist), dist, np.float32(1e4))
+        pix = []
+        for k in (0, 2):
+            rel = (P[1] - P[k]).astype(np.float32)
+            xw = [rel[i] + d * D[i] for i in range(3)]
+            Rt = R[k].T.astype(np.float32)
+            xc, yc, zc = ((Rt[i, 0] * xw[0] + Rt[i, 1] * xw[1] + Rt[i, 2] * xw[2]) for i in range(3))
+            zc = np.maximum(zc, np.float32(1e-3))
+            pix.append((xc / zc, yc / zc))
+        K = self.camera.camera_matrix
+        h, w = self.camera.height_px, self.camera.width_px
+        flow_x = (np.float32(K[0, 0]) * (pix[1][0] - pix[0][0])).reshape(h, w)
+        flow_y = (np.float32(K[1, 1]) * (pix[1][1] - pix[0][1])).reshape(h, w)
+        gx, gy = self._grid
+        acc = np.zeros_like(img)
+        for a in np.linspace(-0.5, 0.5, n_taps, dtype=np.float32):
+            acc += cv2.remap(img, gx - a * flow_x, gy - a * flow_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        acc *= np.float32(1.0 / n_taps)
+        return acc
+
+    def _shade(
+        self, rotation: NDArray[np.float64], position_m: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32], tuple[NDArray[np.float32], ...]]:
+        sc, st = self.scene, self.settings
+        dist, label, (dxs, dys, dzs) = self.cast(rotation, position_m)
+        px, py, pz = (float(v) for v in position_m)
+        H = sc.camera_height_m
+        n = dist.size
+        img = np.empty((n, 3), np.float32)
+        # sky: smooth gradient with elevation
+        sky = np.nonzero(label < 0)[0]
+        if sky.size:
+            elev = np.clip(-dys[sky] * np.float32(1 / 0.6), 0.0, 1.0)[:, None]
+            hor, zen = np.array(sc.sky_horizon_bgr, np.float32), np.array(sc.sky_zenith_bgr, np.float32)
+            img[sky] = hor + (zen - hor) * elev
+        fog_c = np.array(sc.sky_horizon_bgr, np.float32)
+        period = float(sc.block_edges_z_m[-1])
+        for lab, tex, brightness in (
+            (0, sc.ground, 1.0),
+            (1, sc.left_wall, 0.82),
+            (2, sc.right_wall, 1.08),
+            (3, sc.far, 0.95),
+        ):
+            idx = np.nonzero(label == lab)[0]
+            if idx.size == 0:
+                continue
+            s = dist[idx]
+            inv = np.float32(1.0 / tex.texel_m)
+            rows = np.float32(tex.levels[0].shape[0])
+            if lab == 0:
+                cols_m = tex.levels[0].shape[1] * tex.texel_m
+                u = (np.float32((px - sc.left_wall_x_m) % cols_m) + s * dxs[idx]) * inv
+                v = (np.float32(pz % tex.height_m) + s * dzs[idx]) * inv
+                cos_i = np.abs(dys[idx])
+            elif lab in (1, 2):
+                u = (np.float32(pz % period) + s * dzs[idx]) * inv
+                v = rows - (np.float32(H - py) - s * dys[idx]) * inv
+                cos_i = np.abs(dxs[idx])
+            else:
+                u = (np.float32(px - sc.far_edges_x_m[0]) + s * dxs[idx]) * inv
+                v = rows - (np.float32(H - py) - s * dys[idx]) * inv
+                cos_i = np.abs(dzs[idx])
+            level = self._lod[idx] + np.log2(s * inv) - np.float32(0.5) * np.log2(np.maximum(cos_i, np.float32(0.02)))
+            col = self._atlases[lab].sample(u, v, level)
+            if brightness != 1.0:
+                col *= np.float32(brightness)
+            fog = 1.0 - np.exp(-s * np.float32(1.0 / st.fog_distance_m))
+            img[idx] = col + (fog_c - col) * fog[:, None]
+        return img.reshape(self.camera.height_px, self.camera.width_px, 3), dist, (dxs, dys, dzs)
+
+    def blur_taps(self, blur_px: float) -> int:
+        """Samples to average along a pixel's motion of ``blur_px`` during the exposure (1 = no blur)."""
+        if blur_px < 0.5:
+            return 1
+        return int(np.clip(np.ceil(blur_px / self.settings.blur_step_px) + 1, 2, self.settings.max_blur_taps))
+
+    def finish(self, img: NDArray[np.float32], rng: np.random.Generator) -> NDArray[np.uint8]:
+        """Defocus, vignetting, shot and read noise, 8-bit quantisation."""
+        st = self.settings
+        if st.defocus_sigma_px > 0:
+            img = cv2.GaussianBlur(img, (0, 0), st.defocus_sigma_px)
+        img = img * self._vignette
+        if st.read_noise_dn > 0 or st.shot_noise_gain > 0:
+            sigma = np.sqrt(np.float32(st.read_noise_dn**2) + np.float32(st.shot_noise_gain) * np.maximum(img, 0.0))
+            img += self._noise(rng) * sigma
+        return np.clip(img + np.float32(0.5), 0, 255).astype(np.uint8)
+
+    def _noise(self, rng: np.random.Generator) -> NDArray[np.float32]:
+        """Unit white noise (H, W, 3): a random crop of a random one of a few pre-drawn fields, randomly flipped
+        (drawing 1M normals per frame would cost more than rendering it); different every frame."""
+        h, w = self.camera.height_px, self.camera.width_px
+        if self._noise_bank is None:
+            bank_rng = np.random.default_rng(0x401_5E)
+            self._noise_bank = [bank_rng.standard_normal((h + 64, w + 64, 3), dtype=np.float32) for _ in range(4)]
+        field_ = self._noise_bank[int(rng.integers(len(self._noise_bank)))]
+        oy, ox = int(rng.integers(64)), int(rng.integers(64))
+        crop = field_[oy : oy + h, ox : ox + w]
+        if rng.integers(2):
+            crop = crop[::-1]
+        if rng.integers(2):
+            crop = crop[:, ::-1]
+        return crop

@@ -1,0 +1,311 @@
+"""A simulated walking session: gait model + street scene + renderer + IMU, written to files or streamed.
+
+``simulate(out_dir, ...)`` writes ``video.mp4``, ``truth.csv``, ``imu.csv``, ``camera.yaml`` and ``meta.json``;
+``iter_frames(...)`` yields ``(t_s, frame_bgr, truth_angles_deg)`` in memory (the live ``sim:`` source).
+Frame ``i`` is at ``t = i / fps``; the IMU shares that clock.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import platform
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from walkmon.calibration import CameraModel, default_camera, write_camera_yaml
+from walkmon.consts import TRUTH_COLUMNS
+from walkmon.errors import InvalidInputError
+from walkmon.simulate.gait import STANDING_S, GaitModel
+from walkmon.simulate.imu import DEFAULT_IMU_SETTINGS, ImuSamples, ImuSettings, simulate_imu
+from walkmon.simulate.render import DEFAULT_RENDER_SETTINGS, Renderer, RenderSettings
+from walkmon.simulate.scene import StreetScene, build_street_scene
+from walkmon.tables import write_table
+
+__all__ = [
+    "SIMULATION_DISTORTION",
+    "SimulatedSession",
+    "SimulationResult",
+    "iter_frames",
+    "simulate",
+    "simulation_camera",
+]
+
+_log = logging.getLogger(__name__)
+
+#: plumb_bob coefficients (k1, k2, p1, p2, k3) of the simulated lens when ``distortion=True``: clear barrel.
+SIMULATION_DISTORTION = (-0.28, 0.09, 0.0, 0.0, 0.0)
+
+#: Horizontal field of view of the simulated camera, degrees.
+SIMULATION_HFOV_DEG = 70.0
+
+
+def simulation_camera(width: int = 640, height: int = 480, distortion: bool = False) -> CameraModel:
+    """The simulated camera: 70° horizontal field of view, square pixels, optional barrel distortion."""
+    if not (16 <= int(width) <= 4096 and 16 <= int(height) <= 4096):
+        msg = f"image size must be between 16 and 4096 pixels a side, got {width}x{height}"
+        raise InvalidInputError(msg)
+    cam = default_camera(int(width), int(height), SIMULATION_HFOV_DEG)
+    coeffs = np.array(SIMULATION_DISTORTION if distortion else (0.0,) * 5)
+    return CameraModel(cam.width_px, cam.height_px, cam.camera_matrix, "plumb_bob", coeffs, "walkmon_sim")
+
+
+class SimulatedSession:
+    """Everything needed to produce a session's frames, truth and IMU samples, deterministically per seed."""
+
+    def __init__(
+        self,
+        walk: str = "normal",
+        seconds: float = 16.0,
+        seed: int = 0,
+        width: int = 640,
+        height: int = 480,
+        fps: float = 30.0,
+        distortion: bool = False,
+        *,
+        stand_s: float = STANDING_S,
+        render_settings: RenderSettings = DEFAULT_RENDER_SETTINGS,
+        imu_settings: ImuSettings = DEFAULT_IMU_SETTINGS,
+    ) -> None:
+        if not (np.isfinite(fps) and 1.0 <= fps <= 240.0):
+            msg = f"fps must be in [1, 240], got {fps}"
+            raise InvalidInputError(msg)
+        self.seed = int(seed)
+        self.fps = float(fps)
+        self.distortion = bool(distortion)
+        self.model = GaitModel(walk, seconds, self.seed, stand_s=stand_s)
+        self.camera = simulation_camera(width, height, distortion)
+        self.render_settings = render_settings
+        self.imu_settings = imu_settings
+        self._scene: StreetScene | None = None
+        self._renderer: Renderer | None = None
+
+    @property
+    def n_frames(self) -> int:
+        return int(np.floor(self.model.duration_s * self.fps + 1e-9))
+
+    @property
+    def frame_times_s(self) -> NDArray[np.float64]:
+        return np.arange(self.n_frames) / self.fps
+
+    @property
+    def scene(self) -> StreetScene:
+        if self._scene is None:
+            z_max = float(self.model.position_m(np.linspace(0, self.model.duration_s, 200))[:, 2].max())
+            self._scene = build_street_scene(self.seed, camera_height_m=self.model.camera_height_m, z_max_m=z_max)
+        return self._scene
+
+    @property
+    def renderer(self) -> Renderer:
+        if self._renderer is None:
+            self._renderer = Renderer(self.camera, self.scene, self.render_settings)
+        return self._renderer
+
+    def truth(self) -> dict[str, NDArray[np.float64]]:
+        """truth.csv columns: t, pitch, yaw, roll (degrees, relative to frame 0), x, y, z (metres)."""
+        t = self.frame_times_s
+        angles = self.model.truth_angles_deg(t)
+        pos = self.model.position_m(t)
+        cols = (t, angles[:, 0], angles[:, 1], angles[:, 2], pos[:, 0], pos[:, 1], pos[:, 2])
+        return dict(zip(TRUTH_COLUMNS, cols, strict=True))
+
+    def imu(self) -> ImuSamples:
+        return simulate_imu(self.model, self.imu_settings)
+
+    def _blur_px(self, t_s: float) -> float:
+        """Image motion (pixels) during the exposure around ``t_s``: rotation plus translation at ~2 m depth."""
+        e = self.render_settings.exposure_s
+        if e <= 0:
+            return 0.0
+        R, p = self.model.pose([t_s - e / 2, t_s + e / 2])
+        rel = R[0].T @ R[1]
+        angle = float(np.arccos(np.clip((np.trace(rel) - 1.0) / 2.0, -1.0, 1.0)))
+        f = self.camera.fx
+        return f * angle + f * float(np.linalg.norm(p[1] - p[0])) / 2.0
+
+    def render(self, t_s: float, rng: np.random.Generator) -> NDArray[np.uint8]:
+        """The video frame at ``t_s`` (motion blur over the exposure, defocus, vignetting, noise), BGR uint8."""
+        r = self.renderer
+        n_taps = r.blur_taps(self._blur_px(t_s))
+        e = self.render_settings.exposure_s
+        R, p = self.model.pose([t_s - e / 2, t_s, t_s + e / 2])
+        return r.finish(r.render_blurred(R, p, n_taps), rng)
+
+    def frames(self) -> Iterator[tuple[float, NDArray[np.uint8], NDArray[np.float64]]]:
+        """``(t_s, frame_bgr, truth_angles_deg (3,))`` for every frame, in order."""
+        t_all = self.frame_times_s
+        angles = self.model.truth_angles_deg(t_all) if t_all.size else np.zeros((0, 3))
+        for i, t in enumerate(t_all):
+            rng = np.random.default_rng([self.seed, 0xF4A3E, i])
+            yield float(t), self.render(float(t), rng), angles[i]
+
+    def meta(self) -> dict[str, Any]:
+        """meta.json content (without file names and timings)."""
+        from walkmon import __version__  # noqa: PLC0415
+
+        cam = self.camera
+        imu = self.imu_settings
+        meta: dict[str, Any] = {
+            "generator": "walkmon simulate",
+            "versions": {
+                "walkmon": __version__,
+                "numpy": np.__version__,
+                "opencv": cv2.__version__,
+                "python": platform.python_version(),
+            },
+            **self.model.meta(),
+            "fps": self.fps,
+            "n_frames": self.n_frames,
+            "width": cam.width_px,
+            "height": cam.height_px,
+            "distortion": self.distortion,
+            "camera": {
+                "fx": cam.fx,
+                "fy": cam.fy,
+                "cx": cam.cx,
+                "cy": cam.cy,
+                "hfov_deg": round(cam.hfov_deg, 4),
+                "distortion_model": cam.distortion_model,
+                "distortion_coefficients": [float(v) for v in cam.distortion_coefficients],
+            },
+            "render": {
+                "exposure_s": self.render_settings.exposure_s,
+                "max_blur_taps": self.render_settings.max_blur_taps,
+                "defocus_sigma_px": self.render_settings.defocus_sigma_px,
+                "read_noise_dn": self.render_settings.read_noise_dn,
+                "shot_noise_gain": self.render_settings.shot_noise_gain,
+                "codec": "mp4v",
+            },
+            "imu": {"frame": "camera (x right, y down, z forward)", **imu.to_dict()},
+            "conventions": "R = Rz(roll) Rx(pitch) Ry(yaw), orientation of camera t relative to camera 0; "
+            "degrees; world frame = camera 0 frame (y down); accelerometer = specific force",
+        }
+        return meta
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationResult:
+    """What :func:`simulate` wrote, and how long rendering took."""
+
+    out_dir: Path
+    video_path: Path | None
+    truth_path: Path
+    imu_path: Path
+    camera_path: Path
+    meta_path: Path
+    n_frames: int
+    duration_s: float
+    fps: float
+    camera: CameraModel
+    render_time_s: float
+    meta: dict[str, Any] = field(repr=False)
+
+
+def simulate(
+    out_dir: str | Path,
+    walk: str = "normal",
+    seconds: float = 16.0,
+    seed: int = 0,
+    width: int = 640,
+    height: int = 480,
+    fps: float = 30.0,
+    distortion: bool = False,
+    *,
+    video: bool = True,
+    stand_s: float = STANDING_S,
+    render_settings: RenderSettings = DEFAULT_RENDER_SETTINGS,
+    imu_settings: ImuSettings = DEFAULT_IMU_SETTINGS,
+) -> SimulationResult:
+    """Simulate a walk and write video.mp4 (unless ``video=False``), truth.csv, imu.csv, camera.yaml, meta.json.
+
+    ``walk`` is a walk type (``normal``, ``left_shoulder_down``, ``right_foot_drag``, ``bend``) lasting
+    ``seconds`` in total, or a script like ``"normal:10,bend:10"`` (walking seconds per segment; ``seconds`` is
+    then ignored). Every session starts and ends with ``stand_s`` (2 s) of standing still.
+    """
+    session = SimulatedSession(
+        walk, seconds, seed, width, height, fps, distortion,
+        stand_s=stand_s, render_settings=render_settings, imu_settings=imu_settings,
+    )
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    truth_path, imu_path = out / "truth.csv", out / "imu.csv"
+    camera_path, meta_path, video_path = out / "camera.yaml", out / "meta.json", out / "video.mp4"
+
+    write_table(truth_path, session.truth(), precision={"t": 6})
+    samples = session.imu()
+    write_table(imu_path, samples.columns(), default_precision=7)
+    write_camera_yaml(session.camera, camera_path)
+
+    render_time = 0.0
+    if video:
+        t0 = time.perf_counter()
+        _write_video(session, video_path)
+        render_time = time.perf_counter() - t0
+        _log.info("rendered %d frames in %.1f s", session.n_frames, render_time)
+
+    meta = session.meta()
+    meta["seconds_requested"] = float(seconds)
+    meta["imu"].update(
+        {
+            "gyroscope_bias_rps": [round(float(v), 8) for v in samples.gyroscope_bias_rps],
+            "gyroscope_bias_dps": [round(float(v), 6) for v in np.degrees(samples.gyroscope_bias_rps)],
+            "accelerometer_bias_mps2": [round(float(v), 6) for v in samples.accelerometer_bias_mps2],
+            "n_samples": int(samples.t_s.size),
+        }
+    )
+    meta["scene"] = session.scene.describe() if video else {"camera_height_m": session.model.camera_height_m}
+    meta["files"] = {
+        "video": video_path.name if video else None,
+        "truth": truth_path.name,
+        "imu": imu_path.name,
+        "camera": camera_path.name,
+    }
+    meta["render_time_s"] = round(render_time, 3)
+    meta_path.write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+    return SimulationResult(
+        out, video_path if video else None, truth_path, imu_path, camera_path, meta_path,
+        session.n_frames, session.model.duration_s, session.fps, session.camera, render_time, meta,
+    )
+
+
+def _write_video(session: SimulatedSession, path: Path) -> None:
+    cam = session.camera
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), session.fps, (cam.width_px, cam.height_px))
+    if not writer.isOpened():
+        msg = f"cannot write {path}: OpenCV has no working mp4v encoder here"
+        raise OSError(msg)
+    try:
+        for _, frame, _ in session.frames():
+            writer.write(frame)
+    finally:
+        writer.release()
+
+
+def iter_frames(
+    walk: str = "normal",
+    seconds: float = 16.0,
+    seed: int = 0,
+    width: int = 640,
+    height: int = 480,
+    fps: float = 30.0,
+    distortion: bool = False,
+    *,
+    stand_s: float = STANDING_S,
+    render_settings: RenderSettings = DEFAULT_RENDER_SETTINGS,
+) -> Iterator[tuple[float, NDArray[np.uint8], NDArray[np.float64]]]:
+    """Yield ``(t_s, frame_bgr uint8 (H, W, 3), truth_angles_deg (pitch, yaw, roll))`` for each frame, in memory.
+
+    The frames are identical to the ones :func:`simulate` encodes for the same arguments (before compression).
+    Bad arguments raise :class:`InvalidInputError` here, not at the first frame.
+    """
+    session = SimulatedSession(
+        walk, seconds, seed, width, height, fps, distortion, stand_s=stand_s, render_settings=render_settings
+    )
+    return session.frames()
