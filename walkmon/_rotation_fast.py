@@ -102,7 +102,7 @@ class FastEngine:
             small = cv2.resize(grey, self._track_size, interpolation=cv2.INTER_AREA)
         else:
             small = grey
-        if float(small.std()) < _UNIFORM_STD:
+        if float(cv2.meanStdDev(small)[1][0, 0]) < _UNIFORM_STD:
             # Lens cap / black frame: hold, and keep the last good frame as the one to track from.
             self.started = True
             return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES)

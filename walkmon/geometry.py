@@ -63,6 +63,12 @@ def _check_points(q0: ArrayLike, q1: ArrayLike) -> tuple[NDArray[np.float64], ND
     return a, b
 
 
+def _skew3(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``consts.skew`` for one 3-vector, without the broadcasting machinery (hot loops call this)."""
+    x, y, z = float(v[0]), float(v[1]), float(v[2])
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
 def homogeneous_from_normalized(xy: ArrayLike) -> NDArray[np.float64]:
     """``(x, y) -> (x, y, 1)``; shape (N, 3)."""
     p = np.asarray(xy, dtype=float).reshape(-1, 2)
@@ -74,8 +80,8 @@ def rotation_from_rotvec(rotvec: ArrayLike) -> NDArray[np.float64]:
     v = np.asarray(rotvec, dtype=float)
     theta = math.sqrt(float(v @ v))
     if theta < 1e-12:
-        return np.eye(3) + skew(v)
-    k = skew(v / theta)
+        return np.eye(3) + _skew3(v)
+    k = _skew3(v / theta)
     return np.eye(3) + math.sin(theta) * k + (1.0 - math.cos(theta)) * (k @ k)
 
 
@@ -172,6 +178,16 @@ def sampson_residuals_px(
     return focal_px * e / np.sqrt(np.maximum(den, 1e-30))
 
 
+def _sampson(R: NDArray[np.float64], c: NDArray[np.float64], q0: NDArray[np.float64], q1: NDArray[np.float64]):
+    """Signed Sampson residuals in normalised units for ``E = [c]x R`` (c need not be unit length)."""
+    E = _skew3(c) @ R
+    Eq1 = q1 @ E.T
+    Etq0 = q0 @ E
+    e = np.einsum("ij,ij->i", q0, Eq1)
+    den = Eq1[:, 0] ** 2 + Eq1[:, 1] ** 2 + Etq0[:, 0] ** 2 + Etq0[:, 1] ** 2
+    return e / np.sqrt(np.maximum(den, 1e-30))
+
+
 def centre_from_rotation(q0: NDArray[np.float64], q1: NDArray[np.float64], R: ArrayLike, weights=None):
     """Least-squares baseline direction for a known rotation: ``c`` minimising ``sum w (c . (q0 x R q1))^2``."""
     A = np.cross(q0, q1 @ np.asarray(R, dtype=float).T)
@@ -208,7 +224,7 @@ def refine_relative_pose(
     *,
     scale_px: float = 1.0,
     inlier_px: float = 2.0,
-    iterations: int = 6,
+    iterations: int = 10,
 ) -> PoseFit:
     """Essential-model refinement of (R, c) by Gauss-Newton on Sampson errors with Cauchy IRLS weights.
 
@@ -229,22 +245,23 @@ def refine_relative_pose(
         c = np.asarray(centre_init, dtype=float)
         c = c / np.linalg.norm(c)
         w = cauchy_weights(sampson_residuals_px(essential_from_pose(R, c), a, b, focal_px), scale_px)
+    eps = 1e-6
     for _ in range(max(1, iterations)):
-        u = b @ R.T
-        Eu = np.cross(c, u)  # (E q1) = c x R q1
-        e = np.sum(a * Eu, axis=1)  # algebraic error q0 . (c x R q1)
-        Etq0 = np.cross(a, c) @ R  # E.T q0 = R.T [c]x.T q0 = R.T (q0 x c)
-        den = np.sqrt(np.maximum(Eu[:, 0] ** 2 + Eu[:, 1] ** 2 + Etq0[:, 0] ** 2 + Etq0[:, 1] ** 2, 1e-30))
-        # d e / d phi for R <- exp([phi]x) R:  q0 . (c x (phi x u)) = phi . (u x (c x q0)) ... written via cross
-        J_phi = np.cross(u, np.cross(c, a))
-        J_phi = -J_phi  # sign of d/dphi of a.(c x (phi x u)) = (a x c).(phi x u) = phi.(u x (a x c))
         B = _tangent_basis(c)
-        J_c = np.cross(u, a) @ B  # d/dc of a.(c x u) = c.(u x a)
-        J = np.hstack([J_phi, J_c]) / den[:, None]
-        r = e / den
+        r = _sampson(R, c, a, b)
+        # Forward-difference Jacobian of the full Sampson residual (its denominator depends on R and c too;
+        # treating it as constant turns Gauss-Newton into a slow fixed-point iteration along the
+        # pitch/baseline valley that ground-only views create).
+        J = np.empty((r.size, 5))
+        for k in range(3):
+            dv = np.zeros(3)
+            dv[k] = eps
+            J[:, k] = (_sampson(rotation_from_rotvec(dv) @ R, c, a, b) - r) / eps
+        for k in range(2):
+            J[:, 3 + k] = (_sampson(R, c + eps * B[:, k], a, b) - r) / eps
         w = cauchy_weights(focal_px * r, scale_px)
         JW = J * w[:, None]
-        H = JW.T @ J + 1e-9 * np.eye(5)
+        H = JW.T @ J + 1e-12 * np.eye(5)
         g = JW.T @ r
         try:
             step = -np.linalg.solve(H, g)
@@ -253,7 +270,7 @@ def refine_relative_pose(
         R = rotation_from_rotvec(step[:3]) @ R
         c = c + B @ step[3:]
         c = c / np.linalg.norm(c)
-        if float(step @ step) < 1e-16:
+        if float(step @ step) < 1e-14:
             break
     res = sampson_residuals_px(essential_from_pose(R, c), a, b, focal_px)
     return PoseFit(R, c, res, np.abs(res) < inlier_px)
