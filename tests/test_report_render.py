@@ -126,7 +126,10 @@ def test_indicators_cli_errors_are_one_line(
     if content is not None:
         csv.write_text(content)
     extra = [str(tmp_path / "missing.json") if e == "MISSING" else e for e in extra]
-    rc = main(["indicators", str(csv), "--out", str(tmp_path / "o"), *extra])
+    try:
+        rc = main(["indicators", str(csv), "--out", str(tmp_path / "o"), *extra])
+    except SystemExit as exc:  # argparse-level checks (a missing --baseline file) exit before running
+        rc = exc.code
     err = capsys.readouterr().err
     assert rc == 2
     assert err.count("\n") == 1 and err.startswith("walkmon indicators: error:")

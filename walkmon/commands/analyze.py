@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from walkmon.errors import InvalidInputError
 
 NAME = "analyze"
-HELP = "estimate the camera rotation of every frame of a walking video -> OUT/angles.csv"
+HELP = "estimate the camera rotation of every frame of a walking video -> OUT/angles.csv, indicators.json, report.html"
 
 _log = logging.getLogger(__name__)
 
@@ -39,6 +39,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--method", choices=("fast", "paper"), default="fast", help="rotation method (default fast)")
     p.add_argument("--out", required=True, help="output folder (created) for angles.csv")
     p.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
+    from walkmon.commands.indicators import add_gait_arguments  # noqa: PLC0415
+
+    add_gait_arguments(p)  # --baseline, --mode: indicators.json + report.html (gait engineer)
 
 
 class _Progress:
@@ -136,5 +139,9 @@ def run(args: argparse.Namespace) -> int:
     t_s = np.asarray(columns["t"], dtype=float)
     angles_deg = np.column_stack([columns["pitch"], columns["yaw"], columns["roll"]])
     # ---- later stages: indicators.json / report.html from (t_s, angles_deg) go here (gait engineer) ----
-    del t_s, angles_deg
+    from walkmon.commands.indicators import gait_outputs, summary_line  # noqa: PLC0415
+
+    gait = gait_outputs(out_dir, t_s, angles_deg, baseline_path=args.baseline, mode=args.mode,
+                        meta={"video": str(args.video), "rotation method": args.method})
+    sys.stdout.write(summary_line(*gait))
     return 0

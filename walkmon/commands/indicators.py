@@ -23,10 +23,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_gait_arguments(p)
 
 
+def _existing_file(text: str) -> str:
+    """argparse type: checked before any long computation starts."""
+    if not Path(text).is_file():
+        msg = f"{text}: no such file"
+        raise argparse.ArgumentTypeError(msg)
+    return text
+
+
 def add_gait_arguments(p: argparse.ArgumentParser) -> None:
     """The options ``walkmon analyze`` shares with ``walkmon indicators``."""
     p.add_argument(
         "--baseline",
+        type=_existing_file,
         metavar="INDICATORS_JSON",
         help="indicators.json of the same person's normal walk: classify relative to it",
     )
@@ -94,9 +103,14 @@ def run(args: argparse.Namespace) -> int:
     json_path, html_path, ind = gait_outputs(
         args.out, t, angles, baseline_path=args.baseline, mode=args.mode, meta=_meta_beside(path)
     )
-    cls = ind.classification
-    sys.stdout.write(
-        f"{cls.label}: cadence {ind.cadence_spm:.1f} steps/min, walking {ind.walking_s:.1f} s "
-        f"[{ind.status.value}]\n  " + "\n  ".join(cls.reasons) + f"\n-> {json_path}\n-> {html_path}\n"
-    )
+    sys.stdout.write(summary_line(json_path, html_path, ind))
     return 0
+
+
+def summary_line(json_path: Path, html_path: Path, indicators: Any) -> str:
+    """What the commands print: label, cadence, reasons and where the files went."""
+    cls = indicators.classification
+    return (
+        f"{cls.label}: cadence {indicators.cadence_spm:.1f} steps/min, walking {indicators.walking_s:.1f} s "
+        f"[{indicators.status.value}]\n  " + "\n  ".join(cls.reasons) + f"\n-> {json_path}\n-> {html_path}\n"
+    )
