@@ -1,0 +1,122 @@
+"""``walkmon analyze`` and drivers/video_file.py: output format and the one-line, exit-2 error paths."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from walkmon.calibration import default_camera, write_camera_yaml
+from walkmon.cli import main
+from walkmon.errors import InvalidInputError, SourceError
+from walkmon.tables import read_table
+
+W, H = 160, 120
+
+
+@pytest.fixture(scope="module")
+def small_video(tmp_path_factory):
+    """A 20-frame mp4 of a textured image panning right by 1 px per frame."""
+    path = tmp_path_factory.mktemp("rotation_cli") / "pan.mp4"
+    rng = np.random.default_rng(0)
+    big = cv2.GaussianBlur(cv2.resize((rng.random((40, 80)) * 255).astype(np.uint8), (2 * W, H)), (0, 0), 1.0)
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (W, H))
+    assert writer.isOpened()
+    for i in range(20):
+        writer.write(cv2.cvtColor(np.ascontiguousarray(big[:, i : i + W]), cv2.COLOR_GRAY2BGR))
+    writer.release()
+    return path
+
+
+def test_video_file_iterates_frames_with_container_times(small_video):
+    from walkmon.drivers.video_file import VideoFile
+
+    with VideoFile(small_video) as video:
+        assert (video.width_px, video.height_px) == (W, H)
+        assert video.fps == pytest.approx(25.0)
+        items = list(video)
+    assert len(items) == 20
+    assert np.allclose([t for t, _ in items], np.arange(20) / 25.0)
+    assert items[0][1].shape == (H, W, 3)
+
+
+def test_video_file_errors(tmp_path):
+    from walkmon.drivers.video_file import VideoFile
+
+    with pytest.raises(InvalidInputError, match="no such video file"):
+        VideoFile(tmp_path / "missing.mp4")
+    with pytest.raises(InvalidInputError, match="not a file"):
+        VideoFile(tmp_path)
+    junk = tmp_path / "junk.mp4"
+    junk.write_bytes(b"this is not a video" * 10)
+    with pytest.raises(SourceError, match="junk.mp4"):
+        VideoFile(junk)
+
+
+def test_analyze_writes_angles_csv(small_video, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["analyze", str(small_video), "--out", str(out)]) == 0
+    header = (out / "angles.csv").read_text().splitlines()[0].split(",")
+    assert header[:4] == ["t", "pitch", "yaw", "roll"]
+    assert {"n_inliers", "model", "status"} <= set(header)
+    table = read_table(out / "angles.csv", ["t", "pitch", "yaw", "roll", "n_inliers"])
+    assert len(table["t"]) == 20
+    assert np.allclose(table["t"], np.arange(20) / 25.0, atol=1e-4)
+    # panning the image right = the camera turning right: yaw grows, about atan(1 px / f) per frame
+    f = default_camera(W, H).fx
+    expected = np.degrees(np.arctan(19 / f))
+    assert table["yaw"][-1] == pytest.approx(expected, abs=0.3)
+    assert "20 frames" in capsys.readouterr().out
+
+
+def test_analyze_with_calibration_and_paper_method(small_video, tmp_path):
+    calib = tmp_path / "camera.yaml"
+    write_camera_yaml(default_camera(W, H, hfov_deg=60.0), calib)
+    out = tmp_path / "out"
+    assert main(["analyze", str(small_video), "--calib", str(calib), "--method", "paper", "--out", str(out)]) == 0
+    assert (out / "angles.csv").is_file()
+
+
+def _one_line_exit_2(argv, capsys, needle):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert needle in lines[0]
+    assert "Traceback" not in err
+
+
+def test_analyze_missing_video(tmp_path, capsys):
+    _one_line_exit_2(["analyze", str(tmp_path / "nope.mp4"), "--out", str(tmp_path / "o")], capsys, "nope.mp4")
+
+
+def test_analyze_unreadable_video(tmp_path, capsys):
+    bad = tmp_path / "bad.mp4"
+    bad.write_bytes(b"\x00\x01garbage" * 100)
+    _one_line_exit_2(["analyze", str(bad), "--out", str(tmp_path / "o")], capsys, "bad.mp4")
+
+
+@pytest.mark.parametrize(
+    "content",
+    ["not: [valid", "just a string", "image_width: 160\nimage_height: 120\n", "image_width: 160\nimage_height: 120\n"
+     "camera_matrix: {rows: 3, cols: 3, data: [0, 0, 80, 0, 100, 60, 0, 0, 1]}\n"],
+)
+def test_analyze_bad_calibration(small_video, tmp_path, capsys, content):
+    calib = tmp_path / "camera.yaml"
+    calib.write_text(content)
+    _one_line_exit_2(
+        ["analyze", str(small_video), "--calib", str(calib), "--out", str(tmp_path / "o")], capsys, "camera.yaml"
+    )
+
+
+def test_analyze_missing_calibration_file(small_video, tmp_path, capsys):
+    _one_line_exit_2(
+        ["analyze", str(small_video), "--calib", str(tmp_path / "none.yaml"), "--out", str(tmp_path / "o")],
+        capsys, "none.yaml",
+    )
+
+
+def test_analyze_bad_method_is_a_usage_error(small_video, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["analyze", str(small_video), "--method", "magic", "--out", str(tmp_path / "o")])
+    assert exc.value.code == 2
