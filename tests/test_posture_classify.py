@@ -123,3 +123,14 @@ def test_simulated_cadence_and_bend_offset_match_the_model(simulated_truth: dict
             assert ind.axes["pitch"].inclination_mean == pytest.approx(model.segments[0].pitch_offset_deg, abs=0.5)
         if walk == "left_shoulder_down":
             assert ind.axes["roll"].inclination_mean == pytest.approx(model.segments[0].roll_offset_deg, abs=0.5)
+
+
+def test_simulated_foot_drag_shows_alternating_step_times(simulated_truth: dict) -> None:
+    def ratios(walk: str) -> list[float]:
+        return [compute_indicators(*simulated_truth[walk, s][:2]).asymmetry["step_time_ratio"] for s in SEEDS]
+
+    drag, normal = ratios("right_foot_drag"), ratios("normal")
+    # the simulator alternates right/left step durations by +-10.5 % (true ratio ~1.2) for the dragged foot
+    assert np.mean(drag) > 1.1
+    assert max(normal) < 1.08
+    assert np.mean(drag) > np.mean(normal) + 0.08

@@ -461,6 +461,23 @@ def _axis_indicators(
     )
 
 
+def _peak_centroids(x: NDArray[np.float64], idx: NDArray[np.intp], depth: NDArray[np.float64]) -> NDArray:
+    """Sample positions (fractional) of the peaks of ``x`` at ``idx``: centroid of the part within ``depth``."""
+    out = np.empty(idx.size)
+    reach = max(int(np.median(np.diff(idx))) // 2, 1) if idx.size > 1 else 1  # stay within the own cycle
+    for j, (p, d) in enumerate(zip(idx, depth, strict=True)):
+        level = x[p] - max(float(d), 1e-9)
+        lo = p
+        while lo > max(0, p - reach) and x[lo - 1] > level:
+            lo -= 1
+        hi = p
+        while hi < min(x.size - 1, p + reach) and x[hi + 1] > level:
+            hi += 1
+        w = x[lo : hi + 1] - level
+        out[j] = float(np.sum(w * np.arange(lo, hi + 1)) / np.sum(w))
+    return out
+
+
 def step_asymmetry(x: NDArray[np.float64], imax: NDArray, imin: NDArray, fs: float) -> dict[str, float]:
     """Left/right asymmetry from consecutive pitch (step) cycles, which alternate sides.
 
@@ -486,9 +503,13 @@ def step_asymmetry(x: NDArray[np.float64], imax: NDArray, imin: NDArray, fs: flo
     if imax.size >= 5:
         # Intervals between maxima and between minima: the extremums sit at some phase of the step, and an
         # interval spans parts of two steps, so each estimate underrates the asymmetry; keep the larger one.
+        # Extremum times are the centroids of their peaks' top fifth, not the argmax: a flat, double-humped
+        # peak would otherwise hop between its humps and fake an alternation.
         best = (1.0, 0.0)
-        for marks in (imax, imin):
-            durations = np.diff(marks) / fs
+        swing_all = x[imax] - x[imin]
+        for marks, sign in ((imax, 1.0), (imin, -1.0)):
+            times = _peak_centroids(sign * x, marks, 0.2 * swing_all)
+            durations = np.diff(times) / fs
             a, b = float(durations[0::2].mean()), float(durations[1::2].mean())
             ratio = max(a, b) / min(a, b)
             if ratio >= best[0]:
