@@ -59,15 +59,17 @@ class RenderSettings:
 DEFAULT_RENDER_SETTINGS = RenderSettings()
 
 
-def pixel_rays(camera: CameraModel) -> NDArray[np.float64]:
-    """Unit viewing rays (H*W, 3) in the camera frame of every pixel centre, row-major.
+def pixel_rays(camera: CameraModel, points_px: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Unit viewing rays (N, 3) in the camera frame through pixel positions (N, 2); default: every pixel
+    centre, row-major (N = H*W).
 
     The lens distortion is inverted to convergence (OpenCV's default undistortion stops after 5 iterations,
     which is not exact for strong distortion), so projecting the rays back gives the pixel positions.
     """
-    w, h = camera.width_px, camera.height_px
-    u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-    px = np.stack([u.ravel(), v.ravel()], axis=1).reshape(-1, 1, 2)
+    if points_px is None:
+        u, v = np.meshgrid(np.arange(camera.width_px, dtype=np.float64), np.arange(camera.height_px, dtype=np.float64))
+        points_px = np.stack([u.ravel(), v.ravel()], axis=1)
+    px = np.asarray(points_px, np.float64).reshape(-1, 1, 2)
     if camera.has_distortion:
         crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
         if camera.distortion_model == "equidistant":
