@@ -23,6 +23,7 @@ _log = logging.getLogger(__name__)
 
 #: Subcommand modules, in the order ``walkmon --help`` lists them.
 COMMAND_MODULES = (
+    "walkmon.commands.demo",
     "walkmon.commands.calibrate",
     "walkmon.commands.simulate",
     "walkmon.commands.analyze",
