@@ -95,8 +95,8 @@ class RotationSettings:
     tracking_scale: float = 0.5
     max_features: int = 160
     min_feature_distance_px: float = 16.0
-    klt_window_px: int = 11
-    klt_levels: int = 3
+    klt_window_px: int = 9
+    klt_levels: int = 2
     keyframe_max_frames: int = 30
     keyframe_min_track_fraction: float = 0.6
     keyframe_max_rotation_deg: float = 8.0
