@@ -383,9 +383,20 @@ class GaitModel:
     def _clamp(self, t_s: ArrayLike) -> NDArray[np.float64]:
         return np.clip(np.atleast_1d(np.asarray(t_s, dtype=float)), 0.0, self.duration_s)
 
+    def _frozen(self, t_s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """Clamped times with standing times moved to the middle of their interval (the splines ring for a few
+        milliseconds next to a transition; this keeps standing exactly static), and the standing mask."""
+        tc = self._clamp(t_s)
+        standing = np.zeros(tc.shape, bool)
+        for a, b in self.standing_intervals_s:
+            inside = (tc >= a) & (tc <= b)
+            tc[inside] = 0.5 * (a + b)
+            standing |= inside
+        return tc, standing
+
     def body_angles_deg(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """The model's physical angles (pitch, heading+yaw, roll) in degrees, ``R = Ry(yaw) Rx(pitch) Rz(roll)``."""
-        return self._splines["angles"](self._clamp(t_s))
+        return self._splines["angles"](self._frozen(t_s)[0])
 
     def rotation(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """Orientation relative to frame 0 (camera-t directions into camera 0 / world), shape (N, 3, 3)."""
@@ -394,7 +405,7 @@ class GaitModel:
 
     def position_m(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """Camera position in the world (= camera 0) frame, metres, shape (N, 3)."""
-        return self._splines["position"](self._clamp(t_s))
+        return self._splines["position"](self._frozen(t_s)[0])
 
     def pose(self, t_s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(rotation (N,3,3), position_m (N,3))`` at the given times."""
@@ -406,10 +417,9 @@ class GaitModel:
 
     def angular_velocity_rps(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """Body rate in the camera frame (``dR/dt = R skew(w)``), rad/s, shape (N, 3); exact from the splines."""
-        tc = self._clamp(t_s)
-        inside = ((tc > 0.0) & (tc < self.duration_s)).astype(float)[:, None]
+        tc, standing = self._frozen(t_s)
         a = np.radians(self._splines["angles"](tc))
-        da = np.radians(self._splines["angles"](tc, 1)) * inside
+        da = np.radians(self._splines["angles"](tc, 1)) * (~standing)[:, None]
         rx, rz = rot_x(a[:, 0]), rot_z(a[:, 2])
         e_x, e_y, e_z = np.eye(3)
         # R = Ry(psi) Rx(theta) Rz(phi):  w = (Rx Rz)^T e_y psi' + Rz^T e_x theta' + e_z phi'
@@ -419,9 +429,8 @@ class GaitModel:
 
     def acceleration_mps2(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """Second derivative of the position in the world frame, m/s², shape (N, 3)."""
-        tc = self._clamp(t_s)
-        inside = ((tc > 0.0) & (tc < self.duration_s)).astype(float)[:, None]
-        return self._splines["position"](tc, 2) * inside
+        tc, standing = self._frozen(t_s)
+        return self._splines["position"](tc, 2) * (~standing)[:, None]
 
     def step_phase(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """Step phase (one unit per step; even integers start a right step)."""

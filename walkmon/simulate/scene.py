@@ -14,8 +14,10 @@ its footprint, which keeps distant texture from aliasing (shimmer would wreck fe
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -175,8 +177,10 @@ def _pyramid(img: NDArray[np.float32], min_size: int = 4) -> tuple[NDArray[np.fl
 
 
 def _finish(img: NDArray[np.float32], texel_m: float) -> Texture:
-    levels = _pyramid(np.clip(img, 0.0, 255.0).astype(np.float32))
-    return Texture(tuple(np.round(lv).astype(np.uint8) for lv in levels), texel_m)
+    levels = tuple(np.round(lv).astype(np.uint8) for lv in _pyramid(np.clip(img, 0.0, 255.0).astype(np.float32)))
+    for lv in levels:
+        lv.setflags(write=False)
+    return Texture(levels, texel_m)
 
 
 # -------------------------------------------------------------------------------------------- textures
@@ -342,18 +346,28 @@ def _far_texture(rng: np.random.Generator, size: tuple[int, int]) -> Texture:
     return _finish(img, texel)
 
 
-def build_street_scene(
-    seed: int,
-    *,
-    camera_height_m: float = 1.3,
-    z_min_m: float = -20.0,
-    z_max_m: float = 40.0,
-) -> StreetScene:
-    """A seeded street whose far buildings stand ~40-60 m beyond ``z_max_m`` (the walk's farthest point)."""
+def build_street_scene(seed: int, *, camera_height_m: float = 1.3, z_max_m: float = 40.0) -> StreetScene:
+    """A seeded street whose far buildings stand 40-60 m beyond ``z_max_m`` (the walk's farthest point).
+
+    The street (walls, facade blocks, textures) depends only on ``seed`` and is cached for the last few seeds,
+    since generating its textures takes a few seconds.
+    """
+    street = _street(int(seed))
+    rng = np.random.default_rng([seed, 0xFA2])
+    return StreetScene(
+        camera_height_m=float(camera_height_m),
+        far_z_m=float(z_max_m + rng.uniform(40.0, 60.0)),
+        sky_horizon_bgr=(235.0, 222.0, 205.0),
+        sky_zenith_bgr=(205.0, 150.0, 100.0),
+        **street,
+    )
+
+
+@functools.lru_cache(maxsize=2)
+def _street(seed: int) -> dict[str, Any]:
     rng = np.random.default_rng([seed, 0x5CE7E])
     left = -rng.uniform(2.4, 3.2)
     right = rng.uniform(2.6, 3.6)
-    far_z = float(z_max_m + rng.uniform(40.0, 60.0))
     # facade blocks along z repeat with the facade texture's period, so geometry and texture always agree
     period_m = _FACADE_SIZE[1] * _FACADE_TEXEL_M
     edges = [0.0]
@@ -369,24 +383,18 @@ def build_street_scene(
         far_edges.append(far_edges[-1] + rng.uniform(6.0, 16.0))
     far_edges_arr = np.array(far_edges)
     far_h = rng.uniform(8.0, 24.0, len(far_edges) - 1)
-    ground = _ground_texture(rng, left, right, (2048, 2048))
-    lw = _facade_texture(rng, edges_arr, left_h, _FACADE_SIZE)
-    rw = _facade_texture(rng, edges_arr, right_h, _FACADE_SIZE)
-    far = _far_texture(rng, (512, 2048))
-    return StreetScene(
-        camera_height_m=float(camera_height_m),
-        left_wall_x_m=float(left),
-        right_wall_x_m=float(right),
-        block_edges_z_m=edges_arr,
-        left_heights_m=left_h,
-        right_heights_m=right_h,
-        far_z_m=far_z,
-        far_edges_x_m=far_edges_arr,
-        far_heights_m=far_h,
-        ground=ground,
-        left_wall=lw,
-        right_wall=rw,
-        far=far,
-        sky_horizon_bgr=(235.0, 222.0, 205.0),
-        sky_zenith_bgr=(205.0, 150.0, 100.0),
-    )
+    for arr in (edges_arr, left_h, right_h, far_edges_arr, far_h):
+        arr.setflags(write=False)
+    return {
+        "left_wall_x_m": float(left),
+        "right_wall_x_m": float(right),
+        "block_edges_z_m": edges_arr,
+        "left_heights_m": left_h,
+        "right_heights_m": right_h,
+        "far_edges_x_m": far_edges_arr,
+        "far_heights_m": far_h,
+        "ground": _ground_texture(rng, left, right, (2048, 2048)),
+        "left_wall": _facade_texture(rng, edges_arr, left_h, _FACADE_SIZE),
+        "right_wall": _facade_texture(rng, edges_arr, right_h, _FACADE_SIZE),
+        "far": _far_texture(rng, (512, 2048)),
+    }
