@@ -24,13 +24,18 @@ from walkmon.errors import (
     SourceTimeout,
     WalkmonError,
 )
+from walkmon.rotation import EstimateStatus, RotationEstimate, RotationEstimator, RotationSettings
 
 __all__ = [
     "AXES",
     "GRAVITY_MS2",
     "CameraModel",
     "ConfigError",
+    "EstimateStatus",
     "InvalidInputError",
+    "RotationEstimate",
+    "RotationEstimator",
+    "RotationSettings",
     "SourceDisconnected",
     "SourceError",
     "SourceTimeout",
