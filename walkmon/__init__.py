@@ -25,6 +25,7 @@ from walkmon.errors import (
     WalkmonError,
 )
 from walkmon.rotation import EstimateStatus, RotationEstimate, RotationEstimator, RotationSettings
+from walkmon.indicators import IndicatorSettings, Indicators, compute_indicators, read_indicators, write_indicators
 
 __all__ = [
     "AXES",
@@ -32,6 +33,8 @@ __all__ = [
     "CameraModel",
     "ConfigError",
     "EstimateStatus",
+    "IndicatorSettings",
+    "Indicators",
     "InvalidInputError",
     "RotationEstimate",
     "RotationEstimator",
@@ -42,10 +45,13 @@ __all__ = [
     "WalkmonError",
     "__version__",
     "angles_deg_from_rotation",
+    "compute_indicators",
     "default_camera",
     "gravity_angles_deg_from_gravity",
     "orientation_from_point_transform",
     "read_camera_yaml",
+    "read_indicators",
     "rotation_from_angles_deg",
     "write_camera_yaml",
+    "write_indicators",
 ]

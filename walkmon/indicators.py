@@ -47,7 +47,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import signal
 
 from walkmon.consts import AXES
 from walkmon.errors import ConfigError, InvalidInputError
@@ -366,6 +365,8 @@ def detect_standing(
 def _lowpass(x: NDArray[np.float64], cutoff_hz: float, fs: float) -> NDArray[np.float64]:
     if not (cutoff_hz > 0) or cutoff_hz >= 0.45 * fs or x.shape[0] < 16:
         return x.copy()
+    from scipy import signal  # noqa: PLC0415 - scipy.signal takes ~1 s to import; keep `import walkmon` light
+
     sos = signal.butter(4, cutoff_hz, btype="low", fs=fs, output="sos")
     return signal.sosfiltfilt(sos, x, axis=0)
 
@@ -380,6 +381,8 @@ def cycle_extremums(
     local minimum. Returns ``(maxima_idx, minima_idx)`` of equal length.
     """
     hi = x.size if hi is None else hi
+    from scipy import signal  # noqa: PLC0415 - scipy.signal takes ~1 s to import; keep `import walkmon` light
+
     seg = x[lo:hi]
     if seg.size < 3:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
@@ -402,6 +405,8 @@ def paper_extremums(x: NDArray[np.float64], min_distance: int, keep: NDArray[np.
 
     Each maximum is paired with the next minimum that follows it (adjacent extremums, Eq. 9-10).
     """
+    from scipy import signal  # noqa: PLC0415 - scipy.signal takes ~1 s to import; keep `import walkmon` light
+
     maxima, _ = signal.find_peaks(x, distance=max(int(min_distance), 1))
     minima, _ = signal.find_peaks(-x, distance=max(int(min_distance), 1))
     maxima = maxima[keep[maxima]]
