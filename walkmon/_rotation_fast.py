@@ -11,6 +11,7 @@ orientation times the relative rotation, so error only accumulates once per keyf
 from __future__ import annotations
 
 import logging
+from collections import deque
 
 import cv2
 import numpy as np
@@ -46,6 +47,12 @@ class FastEngine:
         self._prev_pyr = None
         self._pts = np.zeros((0, 1, 2), np.float32)  # current track positions, tracking resolution
         self._kf_q = np.zeros((0, 3))  # the tracks' normalised homogeneous coordinates in the keyframe
+        self._ids = np.zeros(0, np.int64)  # a number per track, to find the same track in older keyframes
+        self._next_id = 0
+        # recent keyframes: (orientation, sorted track ids, their normalised coordinates there)
+        self._window: deque[tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]] = deque(
+            maxlen=max(1, settings.keyframe_window)
+        )
         self._R_kf = np.eye(3)
         self._R_rel = np.eye(3)
         self._c_rel: NDArray[np.float64] | None = None
@@ -81,11 +88,67 @@ class FastEngine:
             return np.zeros((0, 1, 2), np.float32)
         return found.astype(np.float32).reshape(-1, 1, 2)
 
+    def _lose_tracks(self) -> None:
+        """Tracking broke (cap, blur, too few inliers): forget tracks and keyframes, keep the orientation."""
+        self._pts = np.zeros((0, 1, 2), np.float32)
+        self._ids = np.zeros(0, np.int64)
+        self._window.clear()
+
+    def _keep(self, mask: NDArray[np.bool_]) -> None:
+        self._pts, self._kf_q, self._ids = self._pts[mask], self._kf_q[mask], self._ids[mask]
+
+    def _refined_keyframe_orientation(self) -> NDArray[np.float64]:
+        """Sliding-window refinement: the current orientation averaged with the ones older keyframes imply.
+
+        Tracks that survived since an older keyframe give a direct, longer-baseline measurement of the rotation
+        from it, which skips the chain of links in between; the chordal mean of these (weighted by inliers)
+        replaces the chained orientation, so per-link errors average out instead of piling up.
+        """
+        s = self.s
+        chained = self._orientation
+        if len(self._window) < 2 or self._pts.shape[0] == 0:
+            return chained
+        q_cur = self._normalized(self._pts)
+        order = np.argsort(self._ids)
+        ids_cur, q_cur = self._ids[order], q_cur[order]
+        total = self._pts.shape[0] * chained
+        weight = float(self._pts.shape[0])
+        for R_j, ids_j, q_j in list(self._window)[:-1]:
+            _, ia, ib = np.intersect1d(ids_j, ids_cur, assume_unique=True, return_indices=True)
+            if ia.size < 2 * s.min_inliers:
+                continue
+            a, b = q_j[ia], q_cur[ib]
+            init = R_j.T @ chained
+            rot = geo.rotation_only_fit(a, b, self._focal, rotation_init=init, scale_px=2 * s.feature_noise_px)
+            pose = geo.refine_relative_pose(a, b, self._focal, init, scale_px=2 * s.feature_noise_px, iterations=6)
+            mask = rot.inliers | pose.inliers
+            use_pose = geo.gric(pose.residuals_px[mask], s.feature_noise_px, 3, 5) < geo.gric(
+                rot.residuals_px[mask], s.feature_noise_px, 2, 3
+            )
+            R_rel, inl = (pose.rotation, pose.inliers) if use_pose else (rot.rotation, rot.inliers)
+            candidate = R_j @ R_rel
+            n_inl = int(np.count_nonzero(inl))
+            if n_inl < 2 * s.min_inliers or geo.rotation_angle_deg(chained.T @ candidate) > 1.0:
+                continue
+            total = total + n_inl * candidate
+            weight += n_inl
+        if weight == self._pts.shape[0]:
+            return chained
+        U, _, Vt = np.linalg.svd(total / weight)
+        return U @ np.diag([1.0, 1.0, float(np.sign(np.linalg.det(U @ Vt)))]) @ Vt
+
     def _new_keyframe(self, small: NDArray[np.uint8]) -> None:
-        """Make the current frame the keyframe: its orientation is the current one; top up the corners."""
+        """Make the current frame the keyframe (orientation refined over the window); top up the corners."""
+        if self.s.keyframe_window > 1:
+            self._orientation = self._refined_keyframe_orientation()
         new = self._detect(small, self._pts)
+        new_ids = np.arange(self._next_id, self._next_id + new.shape[0], dtype=np.int64)
+        self._next_id += new.shape[0]
         self._pts = np.concatenate([self._pts, new]) if self._pts.shape[0] else new
+        self._ids = np.concatenate([self._ids, new_ids])
         self._kf_q = self._normalized(self._pts) if self._pts.shape[0] else np.zeros((0, 3))
+        order = np.argsort(self._ids)
+        self._window.append((self._orientation.copy(), self._ids[order], self._kf_q[order]))
         self._R_kf = self._orientation.copy()
         self._R_rel = np.eye(3)
         self._c_rel = None
@@ -114,7 +177,7 @@ class FastEngine:
         if self._prev_pyr is None:
             first = not self.started
             self.started = True
-            self._pts = np.zeros((0, 1, 2), np.float32)
+            self._lose_tracks()
             self._new_keyframe(small)
             if self._pts.shape[0] < s.min_inliers:
                 return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, self._pts.shape[0])
@@ -135,12 +198,13 @@ class FastEngine:
             ok = st.ravel().astype(bool)
             p = nxt.reshape(-1, 2)
             ok &= (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] <= w - 1) & (p[:, 1] <= h - 1)
-            self._pts, self._kf_q = nxt[ok], self._kf_q[ok]
+            self._pts = nxt
+            self._keep(ok)
         self._prev_pyr, self._prev_small = pyr, small
         n = self._pts.shape[0]
         if n < s.min_inliers:
             # Lost track (cap removed onto a new view, sudden blur): restart from here, holding orientation.
-            self._pts = np.zeros((0, 1, 2), np.float32)
+            self._lose_tracks()
             self._new_keyframe(small)
             est = self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, n)
             return est
@@ -170,13 +234,13 @@ class FastEngine:
         orientation = self._R_kf @ R_rel
         step_deg = geo.rotation_angle_deg(self._orientation.T @ orientation)
         if n_inliers < s.min_inliers or step_deg > s.max_frame_rotation_deg:
-            self._pts = np.zeros((0, 1, 2), np.float32)
+            self._lose_tracks()
             self._new_keyframe(small)
             return self._hold(t_s, EstimateStatus.LOW_QUALITY, n)
 
         self._orientation = orientation
         self._R_rel = R_rel
-        self._pts, self._kf_q = self._pts[inliers], self._kf_q[inliers]
+        self._keep(inliers)
         self._frames_since_kf += 1
         rel_deg = geo.rotation_angle_deg(R_rel)
         new_kf = (
