@@ -156,6 +156,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--work", type=Path, default=Path("/tmp/walkmon-bench-indicators"))
     p.add_argument("--fresh", action="store_true", help="re-run the rotation estimate even when cached")
     p.add_argument("--results", type=Path, default=RESULTS)
+    p.add_argument("--tag", default="", help="suffix of the result files: indicators-TAG.md / .json")
     args = p.parse_args(argv)
     args.work.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -203,9 +204,10 @@ def main(argv: list[str] | None = None) -> int:
     text = "\n".join(header)
     sys.stdout.write("\n" + text)
     args.results.mkdir(parents=True, exist_ok=True)
-    (args.results / "indicators.md").write_text(text, encoding="utf-8")
+    stem = f"indicators-{args.tag}" if args.tag else "indicators"
+    (args.results / f"{stem}.md").write_text(text, encoding="utf-8")
     clean = [{k: v for k, v in r.items() if k != "est_dir"} for r in rows]
-    (args.results / "indicators.json").write_text(
+    (args.results / f"{stem}.json").write_text(
         json.dumps({"settings": {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()},
                     "summary": summary, "runs": clean}, indent=2) + "\n",
         encoding="utf-8",

@@ -134,3 +134,21 @@ def test_indicators_cli_errors_are_one_line(
     assert rc == 2
     assert err.count("\n") == 1 and err.startswith("walkmon indicators: error:")
     assert "Traceback" not in err
+
+
+def test_analyze_writes_indicators_and_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    session = pytest.importorskip("walkmon.simulate.session")
+    # a tiny clip: the plumbing is under test here (the accuracy is the benchmark's job)
+    sim = session.simulate(tmp_path / "sim", "normal", 10.0, 1, 160, 120)
+    out = tmp_path / "est"
+    with pytest.raises(SystemExit):  # a missing baseline fails before the rotation estimate runs
+        main(["analyze", str(sim.video_path), "--out", str(out), "--baseline", str(tmp_path / "nope.json")])
+    assert not out.exists()
+    assert main(["analyze", str(sim.video_path), "--calib", str(sim.camera_path), "--out", str(out),
+                 "--no-progress"]) == 0
+    assert (out / "angles.csv").is_file() and (out / "report.html").stat().st_size > 50_000
+    doc = json.loads((out / "indicators.json").read_text())
+    assert doc["status"] == "ok"
+    assert doc["cadence_spm"] == pytest.approx(sim.meta["segments"][0]["cadence_spm"], rel=0.03)
+    assert doc["classification"]["label"] == "normal"
+    assert "normal" in capsys.readouterr().out
