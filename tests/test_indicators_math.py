@@ -231,3 +231,20 @@ def test_bad_indicators_json_is_one_clear_error(tmp_path, text: str, match: str)
              "axes": {a: {"lmax_mean": 0, "lmin_mean": 0, "swing_mean": 0, "inclination_mean": 0}
                       for a in ("pitch", "yaw", "roll")}}
         )
+
+
+def test_a_window_starting_mid_walk_gets_no_drift_line() -> None:
+    # the window starts mid-walk, so its end stance cannot be checked against an upright start: not an anchor
+    t, a = synthetic_walk(seconds=20.0, pitch_offset=-15.0, drift_deg_per_s=(0.1, 0.0, 0.0))
+    sel = t >= 5.0
+    ind = compute_indicators(t[sel], a[sel])
+    assert ind.standing_start_s is None and ind.standing_end_s is not None
+    assert ind.drift_removed_deg["pitch"] == 0.0
+    # the end stance differs from a start stance by more than max_drift_deg: not taken as upright either
+    t2, bent_end = synthetic_walk(seconds=20.0, pitch_offset=-15.0)
+    bent_end[t2 > 17.0, 0] = -15.0
+    assert compute_indicators(t2, bent_end).drift_removed_deg["pitch"] == 0.0
+    # the whole session is (upright at both ends)
+    full = compute_indicators(t, a)
+    assert full.drift_removed_deg["pitch"] == pytest.approx(0.1 * 18.0, abs=0.2)
+    assert full.axes["pitch"].inclination_mean == pytest.approx(-15.0, abs=0.1)

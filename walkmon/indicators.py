@@ -18,7 +18,8 @@ Two processing modes (``IndicatorSettings.mode``):
     * Pitch and roll are referenced to the upright standing stance at the start; estimation drift is removed by
       a straight line anchored on the standing phases at *both* ends (the wearer stands upright at both, so any
       difference is drift), which keeps true posture offsets: a walk bent forward 18 deg reads about -18.
-      Without standing phases (a sliding window) the ``reference_deg`` argument, or zero, is the upright stance.
+      Without a standing phase at the start (a sliding window) the ``reference_deg`` argument, or zero, is the
+      upright stance and no drift is removed (an end stance then is not assumed upright).
     * Yaw has no gravity reference and slowly follows the walking direction: it is detrended with the
       least-squares line of the walking part; its inclination is the twist relative to that heading line.
     * Cadence from the FFT peak refined below the bin width, combining pitch (step frequency) with roll and yaw
@@ -111,6 +112,8 @@ class IndicatorSettings:
     lowpass_factor                3.0          walkmon: low-pass cutoff = factor x step frequency (0: none)
     min_cycle_fraction            0.6          nearest two maxima of an axis, in cycles of that axis
     min_walking_s                 3.0          shorter walking parts give status TOO_SHORT
+    max_drift_deg                 8.0          walkmon: an end stance further than this (pitch/roll) from the
+                                               start one is not taken as upright (no drift line)
     ============================  ===========  =====================================================================
     """
 
@@ -126,6 +129,7 @@ class IndicatorSettings:
     lowpass_factor: float = 3.0
     min_cycle_fraction: float = 0.6
     min_walking_s: float = 3.0
+    max_drift_deg: float = 8.0
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -138,7 +142,8 @@ class IndicatorSettings:
         if int(self.pad_factor) != self.pad_factor or self.pad_factor < 1:
             msg = f"pad_factor must be an integer >= 1, got {self.pad_factor}"
             raise ConfigError(msg)
-        for name in ("paper_trim_s", "standing_threshold_deg", "transition_s", "lowpass_factor", "min_walking_s"):
+        for name in ("paper_trim_s", "standing_threshold_deg", "transition_s", "lowpass_factor", "min_walking_s",
+                     "max_drift_deg"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 msg = f"{name} must be a finite number >= 0, got {value}"
@@ -604,11 +609,20 @@ def _analyze_walkmon(
     else:
         ref0 = np.zeros(3)
     t0 = float(np.mean(t[start[0] : start[1]])) if start else float(t[0])
-    if end is not None:
-        ref1 = np.median(raw[end[0] : end[1]], axis=0)
-        t1 = float(np.mean(t[end[0] : end[1]]))
-    else:
-        ref1, t1 = ref0, t0
+    ref1, t1 = ref0, t0
+    if end is not None and start is not None:
+        # Both ends are the upright stance only in a whole session (standing at start and end); a window that
+        # merely ends with the wearer standing still may end in any posture, so it gets no drift line.
+        end_ref = np.median(raw[end[0] : end[1]], axis=0)
+        k_tilt = [AXES.index("pitch"), AXES.index("roll")]
+        gap = float(np.max(np.abs(end_ref[k_tilt] - ref0[k_tilt])))
+        if gap <= settings.max_drift_deg:
+            ref1, t1 = end_ref, float(np.mean(t[end[0] : end[1]]))
+        else:
+            _log.warning(
+                "end stance differs from the start by %.1f deg (> max_drift_deg %.1f): not used as upright",
+                gap, settings.max_drift_deg,
+            )
     trend = line_through(t, t0, ref0, t1, ref1)
     drift = ref1 - ref0
     walking_s = max(0.0, float(t[i1 - 1] - t[i0])) if i1 > i0 else 0.0
