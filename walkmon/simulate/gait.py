@@ -12,7 +12,8 @@ and accelerations are continuous:
 
 * step frequency: vertical bob, pitch, forward speed modulation;
 * stride frequency (half the step frequency): lateral sway, roll, yaw;
-* harmonics on both, per-step amplitude variability, and a slow, smooth heading wander.
+* harmonics on both, per-step amplitude variability, and a slow, smooth heading wander (the walker follows
+  a gently curving line along the street, so the lateral offset stays within about a metre).
 
 The physical orientation is ``R = Ry(heading + yaw) Rx(pitch) Rz(roll)`` (turn about the vertical, then lean the
 trunk); the truth angles are its decomposition with :func:`walkmon.consts.angles_deg_from_rotation`.
@@ -341,13 +342,18 @@ class GaitModel:
         )
         sway = blend("sway_amplitude_m") * v[:, 4] * (np.sin(stride + ph[10]) + h2[4] * np.sin(3 * stride + ph[11]))
 
-        # slow heading wander: integrated smooth turn rate, only while walking (so standing stays static)
-        freqs = rng.uniform(0.03, 0.12, size=3)
-        amps = rng.uniform(0.5, 1.5, size=3)  # degrees of heading swing per component
-        phs = rng.uniform(0.0, 2.0 * np.pi, size=3)
-        rate = sum(a * 2 * np.pi * f * np.cos(2 * np.pi * f * t + p) for a, f, p in zip(amps, freqs, phs, strict=True))
-        heading_deg = np.cumsum(envelope * rate) / _GRID_HZ
-        heading_deg -= heading_deg[np.searchsorted(t, 0.0)]
+        # position: forward speed (modulated at step frequency); the walker follows a gently curving line along
+        # the street, lateral = f(distance walked), so the heading (the line's slope) wanders smoothly by a few
+        # degrees, only while walking, and the lateral offset stays bounded (the walker never reaches a wall)
+        i0 = np.searchsorted(t, 0.0)
+        speed = blend("speed_mps") * (1.0 + 0.06 * envelope * np.cos(two_pi_phi + ph[0] + 0.8))
+        walked_m = np.cumsum(speed) / _GRID_HZ
+        walked_m -= walked_m[i0]
+        k = 2.0 * np.pi / rng.uniform(20.0, 60.0, size=3)  # wavenumbers, rad/m
+        amps = rng.uniform(0.1, 0.25, size=3) * rng.choice([-1.0, 1.0], size=3)  # metres
+        lateral_m = sum(a * (1.0 - np.cos(kk * walked_m)) for a, kk in zip(amps, k, strict=True))
+        hd = np.arctan(sum(a * kk * np.sin(kk * walked_m) for a, kk in zip(amps, k, strict=True)))
+        heading_deg = np.degrees(hd)
 
         pitch_off = blend("pitch_offset_deg")
         roll_off = blend("roll_offset_deg")
@@ -355,12 +361,9 @@ class GaitModel:
         roll_deg = roll_off + envelope * roll_osc
         yaw_deg = heading_deg + envelope * yaw_osc
 
-        # position: forward speed (modulated at step frequency) along the heading, sway, bob, trunk lean
-        speed = blend("speed_mps") * (1.0 + 0.06 * envelope * np.cos(two_pi_phi + ph[0] + 0.8))
-        hd = np.radians(heading_deg)
         fwd = np.stack([np.sin(hd), np.zeros_like(hd), np.cos(hd)], axis=1)
         right = np.stack([np.cos(hd), np.zeros_like(hd), -np.sin(hd)], axis=1)
-        path = np.cumsum(speed[:, None] * fwd, axis=0) / _GRID_HZ
+        path = np.stack([lateral_m, np.zeros_like(hd), walked_m], axis=1)
         lean = np.radians(pitch_off)  # negative when bent forward
         pos = (
             path
@@ -368,7 +371,6 @@ class GaitModel:
             + fwd * (-_HIP_TO_CAMERA_M * np.sin(lean))[:, None]
         )
         pos[:, 1] += -envelope * bob + _HIP_TO_CAMERA_M * (1.0 - np.cos(lean))
-        i0 = np.searchsorted(t, 0.0)
         pos -= pos[i0]
 
         # static before 0 and after the end (the clamp makes this moot, but keeps the splines flat there)

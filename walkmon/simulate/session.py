@@ -238,9 +238,10 @@ def simulate(
     truth_path, imu_path = out / "truth.csv", out / "imu.csv"
     camera_path, meta_path, video_path = out / "camera.yaml", out / "meta.json", out / "video.mp4"
 
-    write_table(truth_path, session.truth(), precision={"t": 6})
+    # round before writing, and add 0.0 so values that round to zero are written as 0.000000, not -0.000000
+    write_table(truth_path, {k: np.round(v, 6) + 0.0 for k, v in session.truth().items()}, default_precision=6)
     samples = session.imu()
-    write_table(imu_path, samples.columns(), default_precision=7)
+    write_table(imu_path, {k: np.round(v, 7) + 0.0 for k, v in samples.columns().items()}, default_precision=7)
     write_camera_yaml(session.camera, camera_path)
 
     render_time = 0.0
