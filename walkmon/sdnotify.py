@@ -57,7 +57,11 @@ class Notifier:
         try:
             if self._sock is None:
                 self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM | socket.SOCK_CLOEXEC)
-            self._sock.sendto(message.encode(), self._address)
+            # never block the processing loop: if the receiver's queue is full the message is dropped
+            self._sock.sendto(message.encode(), socket.MSG_DONTWAIT, self._address)
+        except BlockingIOError:
+            _log.debug("sd_notify: socket queue full, %r dropped", message)
+            return False
         except OSError as exc:
             if not self._failed:
                 _log.warning("sd_notify to %r failed: %s", self._address, exc)
