@@ -72,7 +72,7 @@ class SimCamera(CameraSource):
         self._t0_mono = time.monotonic()
 
     def _simulated_camera(self, simulate: object) -> CameraModel | None:
-        for name in ("simulated_camera", "camera_model", "default_sim_camera"):
+        for name in ("simulation_camera", "simulated_camera", "camera_model"):
             fn = getattr(simulate, name, None)
             if callable(fn):
                 try:

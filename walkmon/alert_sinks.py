@@ -107,7 +107,7 @@ class AlertSinks:
         for ev in events:
             if self.settings.terminal:
                 line = f"[t={ev.t_s:7.1f}s] ALERT {ev.state}: {ev.message}"
-                _log.warning("%s", line)
+                _log.info("%s", line)
                 if self._stream is not None:
                     try:
                         self._stream.write("\n" + line + "\n")

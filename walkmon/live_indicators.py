@@ -67,6 +67,8 @@ class LiveIndicatorSettings:
     #: Plausible cadence range, steps/min.
     cadence_min_spm: float = 60.0
     cadence_max_spm: float = 150.0
+    #: Step asymmetry is only measured when the stride-by-stride mean pitch stays within this range, degrees.
+    steady_posture_range_deg: float = 3.0
     #: Upright calibration: this long a still stance, s ...
     calibration_s: float = 2.0
     #: ... with every axis' standard deviation below this, degrees.
@@ -353,6 +355,24 @@ class LiveIndicatorStage:
             )
             self._calibration_pending = ""
 
+    def _steady_walk(self, grid: NDArray[np.float64], u: NDArray[np.float64], fs: float, f_step: float) -> bool:
+        """True when the whole window is walking in one posture (no start/stop, no posture change in it).
+
+        Step asymmetry is measured only then: a posture change or a walk starting inside the window puts
+        energy at the stride frequency that has nothing to do with the left and right steps.
+        """
+        s = self.settings
+        if grid[-1] - grid[0] < 0.75 * s.window_s:
+            return False
+        head = u[grid <= grid[0] + s.walking_window_s]
+        if max(gait_band_rms_deg(head[:, k], fs, s.gait_band_hz) for k in (0, 2)) < s.walking_min_rms_deg:
+            return False
+        hi, lo = cycle_extremes(u[:, 0], fs, f_step / 2.0)
+        if hi.size < 2:
+            return False
+        mid = (hi + lo) / 2.0
+        return float(mid.max() - mid.min()) <= s.steady_posture_range_deg
+
     def _compute(self, t_now: float) -> LiveIndicators:
         s = self.settings
         t = np.fromiter(self._t, float)
@@ -379,7 +399,8 @@ class LiveIndicatorStage:
                     hi_d, lo_d = cycle_extremes(_detrend(u[:, k]), fs, cycle_hz)
                     sw.append(float(np.mean(hi_d - lo_d)) if hi_d.size else math.nan)
                     inc.append(float(np.mean((hi + lo) / 2.0)) if hi.size else math.nan)
-                asym = step_asymmetry_from_pitch(u[:, 0], fs, f_step)
+                if self._steady_walk(grid, u, fs, f_step):
+                    asym = step_asymmetry_from_pitch(u[:, 0], fs, f_step)
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
         label, reasons = classify_window(incl, swing, asym, walking, s)  # type: ignore[arg-type]
         event, self._pending_event = self._pending_event, None
