@@ -1,0 +1,277 @@
+"""IMU / camera-IMU fusion benchmark: simulated walks (truth) and real IMU data (BROAD, optical truth).
+
+    python benchmarks/bench_fusion.py             # 4 walk types x 16 s (seed 1) + both BROAD trials
+    python benchmarks/bench_fusion.py --quick     # normal + bend, 8 s, BROAD trials cut to their first 70 s
+
+(a) Simulated walks (``walkmon.simulate``: 640x480 30 fps mp4 + 200 Hz imu.csv with gyro bias and noise;
+cached under --cache, shared with bench_rotation.py). Raw RMSE (no detrending, start-relative, degrees) of
+pitch, yaw, roll against truth.csv for: vision alone (the ``fast`` rotation estimator on the video), IMU alone
+(walkmon's ESKF, and VQF offline for reference), and the fusion (ESKF + visual increments). Also the
+gravity-referenced pitch_abs/roll_abs RMSE, and the IMU-camera extrinsics/time-offset estimate (truth: identity,
+0 s) with its residual.
+(b) BROAD (Laidig et al. 2021, CC BY 4.0, /work/shared/data/broad or --broad): inclination error (angle between
+estimated and optical gravity direction in the sensor frame) RMSE over the ``movement`` samples, for walkmon's
+ESKF, VQF (online and offline) and imufusion (Fusion AHRS, default settings) on the same data.
+
+Prints the tables and writes benchmarks/results/fusion.md and fusion.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from walkmon.consts import angles_deg_from_rotation, gravity_angles_deg_from_gravity, rotation_from_angles_deg
+from walkmon.fusion import fuse_recording
+from walkmon.imu_analysis import read_imu_csv, rotation_matrices_from_quaternions_wxyz, vqf_attitude
+from walkmon.imu_attitude import estimate_attitude
+from walkmon.imu_extrinsics import estimate_extrinsics
+from walkmon.tables import read_table
+
+RESULTS = Path(__file__).resolve().parent / "results"
+BROAD_DEFAULT = Path(os.environ.get("WALKMON_BROAD", "/work/shared/data/broad"))
+TARGET_PR_DEG, TARGET_YAW_DEG = 0.3, 0.5
+AXES = ("pitch", "yaw", "roll")
+
+
+def simulated(walk: str, seconds: float, seed: int, cache: Path) -> Path:
+    d = cache / f"{walk}_{seconds:g}s_pinhole_seed{seed}"
+    if not all((d / f).is_file() for f in ("video.mp4", "truth.csv", "imu.csv", "camera.yaml")):
+        from walkmon.simulate import simulate  # noqa: PLC0415
+
+        t0 = time.perf_counter()
+        simulate(d, walk=walk, seconds=seconds, seed=seed)
+        sys.stderr.write(f"  simulated {d.name} in {time.perf_counter() - t0:.0f} s\n")
+    return d
+
+
+def vision(d: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frame times, start-relative rotations and 'measured' flags from the fast rotation estimator."""
+    import cv2  # noqa: PLC0415
+
+    from walkmon.calibration import read_camera_yaml  # noqa: PLC0415
+    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
+    from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
+
+    cv2.setNumThreads(1)
+    est = RotationEstimator(read_camera_yaml(d / "camera.yaml"), RotationSettings(method="fast"))
+    t, R, ok = [], [], []
+    with VideoFile(d / "video.mp4", decode_threads=1) as video:
+        for t_s, frame in video:
+            e = est.push(frame, t_s)
+            t.append(t_s)
+            R.append(e.rotation)
+            ok.append(e.status.is_measured)
+    return np.array(t), np.array(R), np.array(ok)
+
+
+def rmse_axes(est: np.ndarray, truth: np.ndarray) -> list[float]:
+    e = est - truth
+    e[:, 1] = (e[:, 1] + 180.0) % 360.0 - 180.0
+    return [float(v) for v in np.sqrt(np.mean(e**2, axis=0))]
+
+
+def bench_walk(walk: str, seconds: float, seed: int, cache: Path) -> dict:
+    d = simulated(walk, seconds, seed, cache)
+    tr = read_table(d / "truth.csv", ["t", "pitch", "yaw", "roll"])
+    t_truth = tr["t"]
+    R_truth = rotation_from_angles_deg(tr["pitch"], tr["yaw"], tr["roll"])
+    truth = angles_deg_from_rotation(R_truth[0].T @ R_truth)
+    # the simulator's world is camera 0, upright and level: gravity points along +y there
+    truth_abs = gravity_angles_deg_from_gravity(np.einsum("nji,j->ni", R_truth, [0.0, 1.0, 0.0]))
+    imu = read_imu_csv(d / "imu.csv")
+    t0 = time.perf_counter()
+    ft, Rv, ok = vision(d)
+    t_vision = time.perf_counter() - t0
+    if len(ft) != len(t_truth):
+        n = min(len(ft), len(t_truth))
+        ft, Rv, ok, t_truth, truth, truth_abs = ft[:n], Rv[:n], ok[:n], t_truth[:n], truth[:n], truth_abs[:n]
+    vis = angles_deg_from_rotation(Rv[0].T @ Rv)
+    t0 = time.perf_counter()
+    imu_only = fuse_recording(imu.t_s, imu.gyroscope_rad_s, imu.accelerometer_m_s2, t_truth)
+    t_imu = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    fused = fuse_recording(imu.t_s, imu.gyroscope_rad_s, imu.accelerometer_m_s2, t_truth, Rv, ok)
+    t_fused = time.perf_counter() - t0
+    rot_vqf, down_vqf = vqf_attitude(imu.gyroscope_rad_s, imu.accelerometer_m_s2, imu.rate_hz)
+    idx = np.clip(np.searchsorted(imu.t_s, t_truth), 0, len(imu.t_s) - 1)
+    vqf_rel = angles_deg_from_rotation(np.einsum("ji,njk->nik", rot_vqf[idx[0]], rot_vqf[idx]))
+    vqf_abs = gravity_angles_deg_from_gravity(down_vqf[idx])
+    ext = estimate_extrinsics(imu.t_s, imu.gyroscope_rad_s, ft, Rv, ok)
+    row = {
+        "walk": walk,
+        "seconds": seconds,
+        "seed": seed,
+        "frames": len(t_truth),
+        "vision_measured_frames": int(ok.sum()),
+        "visual_increments_used": int(fused.visual_used.sum()),
+        "visual_increments_rejected": int(fused.frames_rejected),
+        "rmse_deg": {
+            "vision": rmse_axes(vis, truth),
+            "imu_eskf": rmse_axes(imu_only.angles_deg, truth),
+            "imu_vqf": rmse_axes(vqf_rel, truth),
+            "fused": rmse_axes(fused.angles_deg, truth),
+        },
+        "abs_rmse_deg": {
+            "imu_eskf": rmse_axes(np.c_[imu_only.abs_angles_deg[:, 0], 0 * t_truth, imu_only.abs_angles_deg[:, 1]], np.c_[truth_abs[:, 0], 0 * t_truth, truth_abs[:, 1]])[::2],
+            "imu_vqf": rmse_axes(np.c_[vqf_abs[:, 0], 0 * t_truth, vqf_abs[:, 1]], np.c_[truth_abs[:, 0], 0 * t_truth, truth_abs[:, 1]])[::2],
+            "fused": rmse_axes(np.c_[fused.abs_angles_deg[:, 0], 0 * t_truth, fused.abs_angles_deg[:, 1]], np.c_[truth_abs[:, 0], 0 * t_truth, truth_abs[:, 1]])[::2],
+        },
+        "extrinsics": {**ext.to_dict(), "truth_rotation_deg": 0.0, "truth_time_offset_s": 0.0},
+        "seconds_cpu": {"vision_decode_and_estimate": round(t_vision, 2), "imu_eskf": round(t_imu, 2), "fused": round(t_fused, 2)},
+    }
+    r = row["rmse_deg"]
+    targets = [TARGET_PR_DEG, TARGET_YAW_DEG, TARGET_PR_DEG]
+    row["meets_abs_target"] = [bool(r["fused"][k] <= targets[k]) for k in range(3)]
+    row["beats_vision"] = [bool(r["fused"][k] < r["vision"][k]) for k in range(3)]
+    row["beats_imu"] = [bool(r["fused"][k] < r["imu_eskf"][k]) for k in range(3)]
+    return row
+
+
+def inclination_deg(down_est: np.ndarray, down_true: np.ndarray) -> np.ndarray:
+    a = down_est / np.linalg.norm(down_est, axis=1, keepdims=True)
+    b = down_true / np.linalg.norm(down_true, axis=1, keepdims=True)
+    return np.degrees(np.arccos(np.clip(np.sum(a * b, axis=1), -1.0, 1.0)))
+
+
+def bench_broad(path: Path, max_seconds: float | None) -> dict:
+    import h5py  # noqa: PLC0415
+
+    with h5py.File(path, "r") as f:
+        gyr = np.asarray(f["imu_gyr"], dtype=float)
+        acc = np.asarray(f["imu_acc"], dtype=float)
+        quat = np.asarray(f["opt_quat"], dtype=float)
+        movement = np.asarray(f["movement"]).astype(bool).reshape(-1)
+        rate = float(f.attrs["sampling_rate"])
+    if max_seconds is not None:
+        n = int(max_seconds * rate)
+        gyr, acc, quat, movement = gyr[:n], acc[:n], quat[:n], movement[:n]
+    t = np.arange(len(gyr)) / rate
+    valid = movement & np.all(np.isfinite(quat), axis=1)
+    down_true = -rotation_matrices_from_quaternions_wxyz(np.nan_to_num(quat, nan=1.0))[:, 2, :]
+    results: dict[str, dict] = {}
+
+    def record(name: str, down: np.ndarray, seconds: float) -> None:
+        e = inclination_deg(down[valid], down_true[valid])
+        results[name] = {"rmse_deg": float(np.sqrt(np.mean(e**2))), "max_deg": float(e.max()), "seconds": round(seconds, 2)}
+
+    t0 = time.perf_counter()
+    track = estimate_attitude(t, gyr, acc)
+    record("walkmon ESKF", track.gravity_down, time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    _, down = vqf_attitude(gyr, acc, rate, offline=False)
+    record("vqf (online)", down, time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    _, down = vqf_attitude(gyr, acc, rate, offline=True)
+    record("vqf (offline)", down, time.perf_counter() - t0)
+    import imufusion  # noqa: PLC0415
+
+    t0 = time.perf_counter()
+    ahrs = imufusion.Ahrs()
+    ahrs.set_sample_period(1.0 / rate)
+    q = np.empty((len(gyr), 4))
+    gyr_dps, acc_g = np.degrees(gyr), acc / 9.81
+    for i in range(len(gyr)):
+        ahrs.update_no_magnetometer(gyr_dps[i], acc_g[i])
+        q[i] = ahrs.get_quaternion()
+    record("imufusion", -rotation_matrices_from_quaternions_wxyz(q)[:, 2, :], time.perf_counter() - t0)
+    walkmon = results["walkmon ESKF"]["rmse_deg"]
+    return {
+        "trial": path.stem,
+        "seconds": round(float(t[-1]), 1),
+        "movement_samples": int(valid.sum()),
+        "filters": results,
+        "walkmon_no_worse_than_vqf_and_imufusion": bool(
+            walkmon <= results["vqf (online)"]["rmse_deg"] and walkmon <= results["imufusion"]["rmse_deg"]
+        ),
+    }
+
+
+def fmt(v: list[float]) -> str:
+    return " / ".join(f"{x:.3f}" for x in v)
+
+
+def tables(walk_rows: list[dict], broad_rows: list[dict]) -> str:
+    lines = [
+        "### (a) Simulated walks: raw RMSE pitch / yaw / roll (deg, start-relative, no detrending)",
+        "",
+        f"Targets for the fusion: pitch and roll <= {TARGET_PR_DEG}, yaw <= {TARGET_YAW_DEG}, and lower than vision"
+        " alone and IMU alone on each axis.",
+        "",
+        "| walk | vision (fast) | IMU ESKF | IMU VQF | fused | abs pitch/roll fused | fused < vision | fused < IMU | extrinsics rot err, offset, residual |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    yes = lambda flags: "".join("y" if f else "n" for f in flags)  # noqa: E731
+    for r in walk_rows:
+        m, x = r["rmse_deg"], r["extrinsics"]
+        lines.append(
+            f"| {r['walk']} {r['seconds']:g} s | {fmt(m['vision'])} | {fmt(m['imu_eskf'])} | {fmt(m['imu_vqf'])} | "
+            f"**{fmt(m['fused'])}** | {fmt(r['abs_rmse_deg']['fused'])} | {yes(r['beats_vision'])} | {yes(r['beats_imu'])} | "
+            f"{x['rotation_deg']:.2f} deg, {1000 * x['time_offset_s']:.1f} ms, {x['residual_deg_s']:.2f} deg/s |"
+        )
+    lines += [
+        "",
+        "(y/n per axis pitch, yaw, roll. Extrinsics: estimated IMU-camera rotation angle (truth 0), time offset (truth 0),",
+        "RMS rate residual.)",
+        "",
+        "### (b) BROAD real IMU trials (Laidig et al. 2021, CC BY 4.0): inclination RMSE over movement (deg)",
+        "",
+        "| trial | walkmon ESKF | vqf (online) | vqf (offline) | imufusion | walkmon <= vqf and imufusion |",
+        "|---|---|---|---|---|---|",
+    ]
+    for b in broad_rows:
+        f = b["filters"]
+        lines.append(
+            f"| {b['trial']} ({b['seconds']:g} s) | {f['walkmon ESKF']['rmse_deg']:.3f} | {f['vqf (online)']['rmse_deg']:.3f} | "
+            f"{f['vqf (offline)']['rmse_deg']:.3f} | {f['imufusion']['rmse_deg']:.3f} | "
+            f"{'yes' if b['walkmon_no_worse_than_vqf_and_imufusion'] else 'no'} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true")
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seconds", type=float, default=16.0)
+    p.add_argument("--walks", nargs="+", default=["normal", "left_shoulder_down", "right_foot_drag", "bend"])
+    p.add_argument("--cache", default=os.environ.get("WALKMON_BENCH_CACHE", "/tmp/walkmon_bench_sims"))
+    p.add_argument("--broad", default=str(BROAD_DEFAULT))
+    p.add_argument("--no-write", action="store_true", help="print only")
+    args = p.parse_args(argv)
+    cache = Path(args.cache)
+    cache.mkdir(parents=True, exist_ok=True)
+    walks = ["normal", "bend"] if args.quick else args.walks
+    seconds = 8.0 if args.quick else args.seconds
+    walk_rows = []
+    for w in walks:
+        sys.stderr.write(f"walk {w} ...\n")
+        walk_rows.append(bench_walk(w, seconds, args.seed, cache))
+    broad_rows = []
+    for path in sorted(Path(args.broad).glob("*.hdf5")):
+        sys.stderr.write(f"BROAD {path.name} ...\n")
+        broad_rows.append(bench_broad(path, 70.0 if args.quick else None))
+    text = tables(walk_rows, broad_rows)
+    sys.stdout.write(text)
+    if not args.no_write:
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        header = (
+            "## Fusion benchmark (benchmarks/bench_fusion.py"
+            + (" --quick" if args.quick else "")
+            + f")\n\nMachine: {platform.machine()}, {os.cpu_count()} CPUs, Python {platform.python_version()}."
+            f" Date: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.\n\n"
+        )
+        (RESULTS / "fusion.md").write_text(header + text, encoding="utf-8")
+        (RESULTS / "fusion.json").write_text(json.dumps({"walks": walk_rows, "broad": broad_rows}, indent=1), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
