@@ -172,7 +172,8 @@ class SerialImu:
             self._serial = None
 
     def __enter__(self) -> SerialImu:
-        return self.start()
+        """Starts the reader unless it already runs (``with open_serial_imu(url) as imu:`` works too)."""
+        return self if self._thread is not None else self.start()
 
     def __exit__(
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
