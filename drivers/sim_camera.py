@@ -25,7 +25,7 @@ _log = logging.getLogger(__name__)
 
 def script_seconds(walk: str) -> float | None:
     """Total of the durations in a walk script like ``normal:10,bend:10``; None for a bare walk name."""
-    parts = [p.strip() for p in walk.split(",") if p.strip()]
+    parts = [p.strip() for p in walk.split(",")]
     total = 0.0
     for p in parts:
         m = re.fullmatch(r"[A-Za-z_]+(?::(\d+(?:\.\d+)?))?", p)

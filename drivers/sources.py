@@ -124,6 +124,16 @@ def open_camera(url: str):  # noqa: ANN201 - a CameraSource
         msg = f"source {url!r}: sim needs a walk, e.g. sim:normal:10,bend:10"
         raise ConfigError(msg)
     script_seconds(target)  # validates the script's syntax
+    try:
+        from walkmon.simulate.gait import parse_walk_script  # noqa: PLC0415
+    except ImportError:
+        pass
+    else:
+        try:
+            parse_walk_script(target, opts.get("seconds", 16.0))  # validates walk types and durations
+        except ValueError as exc:
+            msg = f"source {url!r}: {exc}"
+            raise ConfigError(msg) from exc
     return SimCamera(url, target, **opts)
 
 
