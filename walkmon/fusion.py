@@ -8,8 +8,9 @@ vision mainly refines the gyroscope bias on all three axes (gravity cannot see t
 gyroscope carries the fast motion and gravity keeps pitch/roll absolute.
 
 Poor frames are tolerated three ways: frames the estimator flags (``ok=False``, e.g. too few inliers) are not
-used and the next good frame only re-anchors the clone; a chi-square gate rejects visual increments that
-disagree with the gyroscope; and between good frames the IMU alone carries the estimate.
+used and the next good frame only re-anchors the clone; increments that disagree with the gyroscope by more
+than ``visual_outlier_deg`` are rejected and those beyond a chi-square gate down-weighted; and between good
+frames the IMU alone carries the estimate.
 
 Outputs per frame (:class:`FusedEstimate`): start-relative pitch, yaw, roll (relative to the camera at the first
 frame) and the gravity-referenced ``pitch_abs, roll_abs``.
@@ -53,7 +54,9 @@ class FusionSettings:
     """Settings of :class:`CameraImuFusion`.
 
     ``attitude``: the IMU filter's noise model. ``visual_std_deg``: std of one frame-to-frame visual rotation,
-    per axis. ``visual_gate``: chi-square threshold (3 dof) beyond which a visual increment is rejected.
+    per axis (the fast estimator on simulated walks: ~0.01 deg). ``visual_gate``: chi-square threshold (3 dof)
+    beyond which a visual increment is down-weighted; ``visual_outlier_deg``: a frame-to-frame disagreement with
+    the gyroscope larger than this rejects the increment.
     ``camera_from_imu``: rotation taking IMU axes to camera axes (row-major 3x3; identity when the IMU is the
     camera's, as in the simulator). ``time_offset_s``: added to IMU timestamps to put them on the video clock.
     """
@@ -61,6 +64,7 @@ class FusionSettings:
     attitude: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS
     visual_std_deg: float = 0.02
     visual_gate: float = _GATE_3DOF
+    visual_outlier_deg: float = 1.0
     camera_from_imu: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     time_offset_s: float = 0.0
 
@@ -68,8 +72,8 @@ class FusionSettings:
         if not (np.isfinite(self.visual_std_deg) and self.visual_std_deg > 0):
             msg = f"visual_std_deg must be positive, got {self.visual_std_deg}"
             raise ConfigError(msg)
-        if not (np.isfinite(self.visual_gate) and self.visual_gate > 0):
-            msg = f"visual_gate must be positive, got {self.visual_gate}"
+        if not (np.isfinite(self.visual_gate) and self.visual_gate > 0 and self.visual_outlier_deg > 0):
+            msg = f"visual_gate and visual_outlier_deg must be positive, got {self.visual_gate}, {self.visual_outlier_deg}"
             raise ConfigError(msg)
         R = np.asarray(self.camera_from_imu, dtype=float)
         if R.shape != (9,) or not np.allclose(R.reshape(3, 3) @ R.reshape(3, 3).T, np.eye(3), atol=1e-4):
@@ -92,7 +96,7 @@ class FusedEstimate:
     """The fused camera orientation at one video frame (angles in degrees, conventions of walkmon.consts).
 
     ``visual_used``: the frame's visual rotation corrected the filter; ``visual_rejected``: it was offered but
-    flagged bad or gated out.
+    flagged bad or rejected as an outlier.
     """
 
     t_s: float
@@ -155,6 +159,21 @@ class CameraImuFusion:
         elif f.down_world is None:
             f.correct(gyro, accel)
 
+    def _visual_update(self, residual: NDArray[np.float64], H: NDArray[np.float64]) -> bool:
+        """Robust update: reject increments off by more than ``visual_outlier_deg``; beyond the chi-square
+        gate, inflate the measurement noise so the normalised innovation sits at the gate (Huber-like), so an
+        estimator noisier than ``visual_std_deg`` is down-weighted instead of thrown away."""
+        s = self.settings
+        if np.degrees(np.linalg.norm(residual)) > s.visual_outlier_deg:
+            return False
+        f = self._filter
+        R = np.eye(3) * np.radians(s.visual_std_deg) ** 2
+        S = H @ f.kf.P @ H.T + R
+        d2 = float(residual @ np.linalg.solve(S, residual))
+        if d2 > s.visual_gate:
+            R = R * (d2 / s.visual_gate)
+        return f.update(residual, H, R)
+
     def push_frame(self, t_s: float, visual_rotation: ArrayLike | None = None, ok: bool = True) -> FusedEstimate:
         """Propagate to the frame time and use its visual orientation (start-relative, as the rotation
         estimator reports it) when ``ok``; ``None`` means IMU only."""
@@ -177,8 +196,7 @@ class CameraImuFusion:
                 H = np.zeros((3, f.kf.dim_x))
                 H[:, 0:3] = np.eye(3)
                 H[:, 6:9] = -dR_pred.T
-                var = np.radians(self.settings.visual_std_deg) ** 2
-                used = f.update(residual, H, np.eye(3) * var, gate=self.settings.visual_gate)
+                used = self._visual_update(residual, H)
                 rejected = not used
             f.clone_current(0)
             self._last_visual = Rv
