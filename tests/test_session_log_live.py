@@ -146,3 +146,21 @@ def test_kill_9_mid_session_keeps_the_database_intact_and_loses_at_most_a_second
     assert n >= sum(1 for t in produced if t <= last)
     (s,) = list_sessions(tmp_path)
     assert s.ended_utc is None  # cut off: listed as such, still readable
+
+
+def test_analyze_save_records_an_offline_session(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from walkmon.simulate import simulate
+    from walkmon.tables import read_table
+
+    sim = simulate(tmp_path / "clip", walk="normal:3", seed=4, width=160, height=120)
+    data = tmp_path / "data"
+    assert main(["analyze", str(sim.video_path), "--calib", str(sim.camera_path), "--out", str(tmp_path / "out"),
+                 "--no-progress", "--save", "--data-dir", str(data)]) == 0
+    assert "saved as session 1" in capsys.readouterr().out
+    (s,) = list_sessions(data)
+    assert (s.kind, s.n_frames, s.end_reason, s.camera) == ("analyze", sim.n_frames, "complete", str(sim.video_path))
+    offline = read_table(tmp_path / "out" / "angles.csv", ("t", "pitch", "yaw", "roll"))
+    conn = open_database(data, create=False)
+    stored = read_session_table(conn, s.id, "frames")
+    conn.close()
+    assert np.allclose(stored["pitch"], offline["pitch"], atol=1e-4)  # angles.csv is rounded to 4 decimals

@@ -42,6 +42,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from walkmon.commands.indicators import add_gait_arguments  # noqa: PLC0415
 
     add_gait_arguments(p)  # --baseline, --mode: indicators.json + report.html (gait engineer)
+    p.add_argument("--save", action="store_true", help="also record the result as a session in the session log")
+    p.add_argument("--data-dir", metavar="DIR", help="session database folder for --save (default ~/.local/share/walkmon)")
 
 
 class _Progress:
@@ -144,4 +146,14 @@ def run(args: argparse.Namespace) -> int:
     gait = gait_outputs(out_dir, t_s, angles_deg, baseline_path=args.baseline, mode=args.mode,
                         meta={"video": str(args.video), "rotation method": args.method})
     sys.stdout.write(summary_line(*gait))
+    if getattr(args, "save", False):  # live engineer: offline checks land in the same session history
+        from walkmon.session_log import default_data_dir, record_offline_session  # noqa: PLC0415
+
+        data_dir = Path(args.data_dir).expanduser() if args.data_dir else default_data_dir()
+        sid = record_offline_session(
+            data_dir, t_s, angles_deg, source=str(args.video), config={"method": args.method},
+            meta={"out_dir": str(out_dir), "baseline": args.baseline},
+            extra=[(e.n_inliers, e.model, e.status.value) for e in estimates],
+        )
+        sys.stdout.write(f"saved as session {sid} in {data_dir}\n")
     return 0
