@@ -214,3 +214,19 @@ def test_a_failing_thread_is_reported_not_silent(bend_model: GaitModel, tmp_path
     (s,) = list_sessions(tmp_path)
     assert s.end_reason.startswith("error") and s.n_frames == 10
     assert sqlite3.connect(tmp_path / "walkmon.sqlite").execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+
+
+def test_imu_samples_are_logged_with_the_session(bend_model: GaitModel, tmp_path: Path) -> None:
+    from walkmon.drivers.sources import open_imu
+
+    imu_csv = tmp_path / "imu.csv"
+    t = np.arange(400) / 200.0
+    rows = "\n".join(f"{ti:.3f},0.01,{0.001 * i},0,0,-9.81,0" for i, ti in enumerate(t))
+    imu_csv.write_text("t,gx,gy,gz,ax,ay,az\n" + rows + "\n")
+    src = GaitSource(bend_model, stop_after_s=2.0)
+    res = make_pipeline(src, TruthEstimator(bend_model), tmp_path, imu_source=open_imu(f"file:{imu_csv}")).run()
+    assert res.imu_samples == 400 and res.imu_overflows == 0
+    conn = open_database(tmp_path, create=False)
+    imu = read_session_table(conn, res.session_id, "imu")
+    conn.close()
+    assert np.allclose(imu["t_s"], t) and np.allclose(imu["gy"], 0.001 * np.arange(400)) and set(imu["ay"]) == {-9.81}
