@@ -120,3 +120,23 @@ def test_analyze_bad_method_is_a_usage_error(small_video, tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["analyze", str(small_video), "--method", "magic", "--out", str(tmp_path / "o")])
     assert exc.value.code == 2
+
+
+def test_progress_bar_draws_frames_per_second_only_when_enabled():
+    import io
+
+    from walkmon.commands.analyze import _Progress
+
+    quiet = io.StringIO()
+    p = _Progress(10, stream=quiet)  # a StringIO is not a terminal
+    for _ in range(10):
+        p.update()
+    p.close()
+    assert quiet.getvalue() == ""
+    loud = io.StringIO()
+    p = _Progress(10, stream=loud, enabled=True)
+    for _ in range(10):
+        p.update()
+    p.close()
+    text = loud.getvalue()
+    assert "10/10 frames" in text and "frames/s" in text and text.endswith("\n")
