@@ -151,3 +151,24 @@ def test_step_asymmetry_is_zero_for_alternating_equal_steps_and_grows_when_they_
     assert step_asymmetry_from_pitch(sym, FPS, f) < 0.02
     limp = sym * (1 + 0.5 * np.sign(np.sin(np.pi * f * t)))  # every other step 3x the swing of the other
     assert step_asymmetry_from_pitch(limp, FPS, f) > 0.3
+
+
+@pytest.mark.parametrize("walk", ["normal", "right_foot_drag", "left_shoulder_down", "bend"])
+def test_live_windows_agree_with_the_offline_analysis_of_the_whole_walk(walk: str) -> None:
+    """Median over the hops of a steady walk vs walkmon.indicators on the whole session (offline targets:
+    cadence 1 %, swing 10 %, pitch/roll inclination 0.5 deg), on the simulator's gait with estimator-like noise."""
+    from walkmon.indicators import compute_indicators
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel(walk, seconds=24, seed=1)
+    t = np.arange(0, 24, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(0).normal(0, 0.05, (t.size, 3))
+    offline = compute_indicators(t, a).to_dict()
+    res = [r for r in run_stage(t, a) if 11 <= r.t_s <= 22]  # windows inside the steady walk
+    assert {r.label for r in res} == {walk} and offline["classification"]["label"] == walk
+    assert np.median([r.cadence_spm for r in res]) == pytest.approx(offline["cadence_spm"], rel=0.01)
+    for k, ax in enumerate(("pitch", "yaw", "roll")):
+        assert np.median([r.swing_deg[k] for r in res]) == pytest.approx(offline["axes"][ax]["swing_mean"], rel=0.1)
+    for k, ax in ((0, "pitch"), (2, "roll")):  # yaw: live keeps heading changes, offline detrends them
+        assert np.median([r.inclination_deg[k] for r in res]) == pytest.approx(
+            offline["axes"][ax]["inclination_mean"], abs=0.5)

@@ -67,6 +67,8 @@ class LiveIndicatorSettings:
     #: Plausible cadence range, steps/min.
     cadence_min_spm: float = 60.0
     cadence_max_spm: float = 150.0
+    #: Swings and inclinations are taken after a low-pass at this multiple of the step frequency (0: none).
+    lowpass_factor: float = 3.0
     #: Step asymmetry is only measured when the stride-by-stride mean pitch stays within this range, degrees.
     steady_posture_range_deg: float = 3.0
     #: Upright calibration: this long a still stance, s ...
@@ -290,6 +292,9 @@ class LiveIndicatorStage:
     """Sliding-window indicator stage: ``push(t_s, angles_deg) -> LiveIndicators | None`` and ``reset()``."""
 
     def __init__(self, settings: LiveIndicatorSettings = DEFAULT_LIVE_INDICATOR_SETTINGS) -> None:
+        from scipy import signal  # noqa: PLC0415 - slow first import: here, not inside the first hop
+
+        self._signal = signal
         self.settings = settings
         self.reset()
 
@@ -355,6 +360,13 @@ class LiveIndicatorStage:
             )
             self._calibration_pending = ""
 
+    def _lowpass(self, u: NDArray[np.float64], cutoff_hz: float, fs: float) -> NDArray[np.float64]:
+        """Zero-phase 4th-order Butterworth low-pass (as the offline analysis does before its extremums)."""
+        if not cutoff_hz > 0 or cutoff_hz >= 0.45 * fs or len(u) < 32:
+            return u
+        sos = self._signal.butter(4, cutoff_hz, btype="low", fs=fs, output="sos")
+        return self._signal.sosfiltfilt(sos, u, axis=0)
+
     def _steady_walk(self, grid: NDArray[np.float64], u: NDArray[np.float64], fs: float, f_step: float) -> bool:
         """True when the whole window is walking in one posture (no start/stop, no posture change in it).
 
@@ -393,10 +405,11 @@ class LiveIndicatorStage:
             if math.isfinite(f_step):
                 cadence_spm = 60.0 * f_step
                 sw, inc = [], []
+                smooth = self._lowpass(u, s.lowpass_factor * f_step, fs)
                 for k in range(3):
                     cycle_hz = f_step if k == 0 else f_step / 2.0
-                    hi, lo = cycle_extremes(u[:, k], fs, cycle_hz)
-                    hi_d, lo_d = cycle_extremes(_detrend(u[:, k]), fs, cycle_hz)
+                    hi, lo = cycle_extremes(smooth[:, k], fs, cycle_hz)
+                    hi_d, lo_d = cycle_extremes(_detrend(smooth[:, k]), fs, cycle_hz)
                     sw.append(float(np.mean(hi_d - lo_d)) if hi_d.size else math.nan)
                     inc.append(float(np.mean((hi + lo) / 2.0)) if hi.size else math.nan)
                 if self._steady_walk(grid, u, fs, f_step):
