@@ -336,12 +336,12 @@ class LivePipeline:
             raise RuntimeError(msg)
         self._started = True
         wall0 = time.monotonic()
-        self.camera.open()
         threads: list[threading.Thread] = []
         error: BaseException | None = None
         hops = alerts_raised = 0
         first_t = last_t = math.nan
         try:
+            self.camera.open()
             estimator = self._estimator_factory(self.camera)
             if self.imu is not None:
                 self.imu.open()
