@@ -74,7 +74,7 @@ def export_session(data_dir: Path, session_id: int, out_dir: Path, fmt: str = "c
             import pyarrow as pa  # noqa: PLC0415
             import pyarrow.parquet as pq  # noqa: PLC0415
         except ImportError as exc:
-            msg = "parquet export needs pyarrow (pip install pyarrow), or use --format csv"
+            msg = "parquet export needs pyarrow (pip install 'walkmon[parquet]'), or use --format csv"
             raise ConfigError(msg) from exc
     conn = open_database(data_dir, create=False)
     try:
