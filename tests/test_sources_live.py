@@ -122,3 +122,15 @@ def test_file_imu_reads_samples_then_ends(tmp_path: Path) -> None:
     assert a.gyroscope_rad_s == (0.1, 0.2, 0.3) and b.accelerometer_m_s2 == (0.0, -9.81, 0.1) and b.t_s == 0.005
     with pytest.raises(SourceError, match="imu.csv"):
         open_imu(f"file:{tmp_path / 'missing' / 'imu.csv'}").open()
+
+
+@pytest.mark.hardware
+@pytest.mark.parametrize("url", ["v4l2:/dev/video0?width=640&height=480&fps=30", "depthai:?width=640&height=480"])
+def test_real_camera_delivers_timestamped_frames(url: str) -> None:
+    """On the device (pytest -m hardware): 60 frames, increasing capture timestamps, about the asked rate."""
+    with open_camera(url) as cam:
+        frames = [cam.read() for _ in range(60)]
+    t = np.array([f.t_s for f in frames])
+    assert np.all(np.diff(t) > 0)
+    assert frames[0].image.shape[:2] == (480, 640)
+    assert 20.0 < 59 / (t[-1] - t[0]) < 40.0
