@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TextIO
 
@@ -29,6 +29,7 @@ from walkmon.consts import (
 )
 from walkmon.errors import ConfigError, InvalidInputError
 from walkmon.fusion import DEFAULT_FUSION_SETTINGS, FusionSettings, FusionTrack, fuse_recording
+from walkmon.imu_attitude import HANDHELD_ATTITUDE_SETTINGS
 from walkmon.imu_extrinsics import ExtrinsicsEstimate, estimate_extrinsics
 from walkmon.tables import read_table, write_table
 
@@ -99,9 +100,10 @@ def _columns(track: FusionTrack, t_out: NDArray[np.float64]) -> dict[str, NDArra
     }
 
 
-#: IMU-only attitude filters: walkmon's error-state Kalman filter, or VQF (offline variant; ``pip install
-#: vqf``), which is better on hand-held real data (BROAD) but worse on walking (see benchmarks/results/fusion.md).
-IMU_FILTERS = ("eskf", "vqf")
+#: IMU-only attitude filters: walkmon's error-state Kalman filter with its walking defaults, the same with
+#: the hand-held preset (gravity low-passed over 3 s), or VQF (offline variant; ``pip install vqf``), which is
+#: the best on hand-held real data (BROAD) but far worse on walking (see benchmarks/results/fusion.md).
+IMU_FILTERS = ("eskf", "eskf-handheld", "vqf")
 
 
 def imu_only_columns(
@@ -128,6 +130,8 @@ def imu_only_columns(
         cols.update(pitch=angles[:, 0], yaw=angles[:, 1], roll=angles[:, 2])
         cols.update(pitch_abs=absolute[:, 0], roll_abs=absolute[:, 1])
         return cols
+    if imu_filter == "eskf-handheld":
+        settings = replace(settings, attitude=HANDHELD_ATTITUDE_SETTINGS)
     track = fuse_recording(imu.t_s, imu.gyroscope_rad_s, imu.accelerometer_m_s2, t_video, settings=settings)
     _log.info("IMU-only attitude: %d samples at %.1f Hz -> %d rows", len(imu.t_s), imu.rate_hz, len(t_video))
     return _columns(track, t_video - t_video[0])

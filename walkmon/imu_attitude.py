@@ -34,6 +34,7 @@ from walkmon.errors import ConfigError, InvalidInputError
 
 __all__ = [
     "DEFAULT_ATTITUDE_SETTINGS",
+    "HANDHELD_ATTITUDE_SETTINGS",
     "AttitudeEstimate",
     "AttitudeSettings",
     "AttitudeStatus",
@@ -94,7 +95,10 @@ class AttitudeSettings:
     deviation from a 0.2 s low-pass, held for ``rest_min_s``; once the bias is known, the low-passed rate minus
     the bias must also stay below ``rest_rate_deg_s`` (so the slow start of a movement is not taken for rest);
     ``rest_rate_std_rad_s``: per-sample std of the zero-rate update at rest.
-    ``rate_hz_nominal``: the rate the per-sample stds refer to (they scale with sqrt(rate/nominal)).
+    ``gravity_lowpass_s``: when > 0, gravity updates (while moving) use the accelerometer low-passed over this
+    many seconds in the world frame, at ``gravity_update_hz`` with std ``gravity_std_lowpass`` (VQF's idea; see
+    :data:`HANDHELD_ATTITUDE_SETTINGS`); 0 (default, best for walking) = per-sample updates as above.
+    ``rate_hz_nominal``: the IMU rate (set from the data by the offline functions).
     """
 
     gyroscope_noise_rad_s_sqrt_hz: float = 3e-4
@@ -105,6 +109,9 @@ class AttitudeSettings:
     gravity_std_rest: float = 0.2
     gravity_std_moving: float = 0.2
     gravity_std_per_m_s2: float = 3.0
+    gravity_lowpass_s: float = 0.0
+    gravity_update_hz: float = 20.0
+    gravity_std_lowpass: float = 0.05
     acceleration_rejection_m_s2: float = 3.0
     rest_gyroscope_deg_s: float = 2.0
     rest_accelerometer_m_s2: float = 0.2
@@ -116,12 +123,19 @@ class AttitudeSettings:
     def __post_init__(self) -> None:
         for name in self.__slots__:  # type: ignore[attr-defined]
             value = getattr(self, name)
+            if name == "gravity_lowpass_s" and value == 0:
+                continue  # 0 = per-sample gravity updates
             if not (np.isfinite(value) and value > 0):
                 msg = f"attitude setting {name} must be a positive number, got {value!r}"
                 raise ConfigError(msg)
 
 
 DEFAULT_ATTITUDE_SETTINGS = AttitudeSettings()
+
+#: For hand-held or slow general motion (no sustained accelerations): gravity from the accelerometer low-passed
+#: over 3 s in the world frame. Better than the walking defaults on the BROAD trials, worse on walks, where the
+#: start of walking and speed changes are sustained forward accelerations (benchmarks/results/fusion.md).
+HANDHELD_ATTITUDE_SETTINGS = AttitudeSettings(gravity_lowpass_s=3.0)
 
 
 class AttitudeStatus(enum.Enum):
@@ -243,6 +257,8 @@ class ImuAttitudeFilter:
         self._rest.reset()
         self.at_rest = False
         self._accel_envelope = 0.0
+        self._accel_world_lp: NDArray[np.float64] | None = None
+        self._since_gravity_s = 0.0
 
     def _set_down(self, down: NDArray[np.float64]) -> None:
         """Fix gravity's direction in the world frame and drop the prior's heading part (about gravity)."""
@@ -346,6 +362,8 @@ class ImuAttitudeFilter:
             H[:, 3:6] = np.eye(3)
             if self.update(gyro - self.bias, H, np.eye(3) * s.rest_rate_std_rad_s**2, gate=_GATE_3DOF):
                 status = AttitudeStatus.REST
+        if s.gravity_lowpass_s > 0 and not self.at_rest:
+            return self._lowpass_gravity_update(accel, dt)
         if abs(norm - GRAVITY_MS2) > s.acceleration_rejection_m_s2 or norm < 1e-6:
             return AttitudeStatus.GYRO_ONLY
         h0 = -self.rotation_world.T @ self.down_world
@@ -355,6 +373,31 @@ class ImuAttitudeFilter:
         std = s.gravity_std_rest if self.at_rest else s.gravity_std_moving + s.gravity_std_per_m_s2 * self._accel_envelope
         self.update(accel / norm - h0, H, np.eye(3) * std**2)
         return status
+
+    def _lowpass_gravity_update(self, accel: NDArray[np.float64], dt: float) -> AttitudeStatus:
+        """Gravity from the accelerometer low-passed in the world frame (``gravity_lowpass_s``), as VQF does:
+        the accelerations of walking or hand motion average out over the low-pass window, while gravity, fixed
+        in the world, stays. Updates at ``gravity_update_hz``; residual in the world frame."""
+        s = self.settings
+        assert self.down_world is not None
+        a_world = self.rotation_world @ accel
+        if self._accel_world_lp is None:
+            self._accel_world_lp = a_world.copy()
+        else:
+            self._accel_world_lp += min(1.0, dt / s.gravity_lowpass_s) * (a_world - self._accel_world_lp)
+        self._since_gravity_s += dt
+        if self._since_gravity_s < 1.0 / s.gravity_update_hz:
+            return AttitudeStatus.GYRO_ONLY
+        self._since_gravity_s = 0.0
+        lp = self._accel_world_lp
+        norm = float(np.linalg.norm(lp))
+        if norm < 1e-6 or abs(norm - GRAVITY_MS2) > s.acceleration_rejection_m_s2:
+            return AttitudeStatus.GYRO_ONLY
+        u = lp / norm
+        H = np.zeros((3, self.kf.dim_x))
+        H[:, 0:3] = self.rotation_world @ skew(self.rotation_world.T @ u)
+        self.update(u + self.down_world, H, np.eye(3) * s.gravity_std_lowpass**2)
+        return AttitudeStatus.GRAVITY
 
     def set_reference(self) -> None:
         """Make the current orientation the start-relative reference (angles 0, 0, 0 now)."""

@@ -34,7 +34,7 @@ _PRECISION = {"t": 4, "pitch": 4, "yaw": 4, "roll": 4, "residual_px": 3, "n_inli
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("video", help="video file (any format OpenCV/FFmpeg reads, e.g. mp4)")
+    p.add_argument("video", nargs="?", help="video file (any format OpenCV/FFmpeg reads, e.g. mp4); optional with --imu")
     p.add_argument("--calib", metavar="CAMERA_YAML", help="ROS camera_info YAML (default: 70 deg HFOV pinhole)")
     p.add_argument("--method", choices=("fast", "paper"), default="fast", help="rotation method (default fast)")
     p.add_argument("--out", required=True, help="output folder (created) for angles.csv")
@@ -44,6 +44,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_gait_arguments(p)  # --baseline, --mode: indicators.json + report.html (gait engineer)
     p.add_argument("--save", action="store_true", help="also record the result as a session in the session log")
     p.add_argument("--data-dir", metavar="DIR", help="session database folder for --save (default ~/.local/share/walkmon)")
+    from walkmon.imu_analysis import add_imu_arguments  # noqa: PLC0415
+
+    add_imu_arguments(p)  # --imu [--imu-filter --imu-offset-s --imu-extrinsics]: IMU-only or fused (IMU engineer)
 
 
 class _Progress:
@@ -114,8 +117,16 @@ def run(args: argparse.Namespace) -> int:
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
     from walkmon.tables import write_table  # noqa: PLC0415
 
-    camera = read_camera_yaml(args.calib) if args.calib else None
     out_dir = Path(args.out)
+    if args.video is None:  # IMU-only analysis (IMU engineer): angles.csv from imu.csv, then the same gait stages
+        if not args.imu:
+            msg = "give a VIDEO, or --imu IMU_CSV for IMU-only analysis"
+            raise InvalidInputError(msg)
+        from walkmon.imu_analysis import analyze_imu_only  # noqa: PLC0415
+
+        t_s, angles_deg = analyze_imu_only(args, sys.stdout)
+        return _later_stages(args, out_dir, t_s, angles_deg, [])
+    camera = read_camera_yaml(args.calib) if args.calib else None
     with VideoFile(args.video) as video:
         if camera is None:
             camera = default_camera(video.width_px, video.height_px)
@@ -132,6 +143,11 @@ def run(args: argparse.Namespace) -> int:
         finally:
             progress.close()
     columns = angle_columns(estimates)
+    if args.imu:  # camera-IMU fusion (IMU engineer): fused pitch/yaw/roll, + pitch_abs/roll_abs, *_video kept
+        from walkmon.imu_analysis import fuse_video_columns  # noqa: PLC0415
+
+        measured = [e.status.is_measured for e in estimates]
+        columns = fuse_video_columns(args, columns, measured, estimates[0].t_s, sys.stdout)
     out_dir.mkdir(parents=True, exist_ok=True)
     angles_path = out_dir / "angles.csv"
     write_table(angles_path, columns, precision={**_PRECISION})
@@ -140,6 +156,11 @@ def run(args: argparse.Namespace) -> int:
 
     t_s = np.asarray(columns["t"], dtype=float)
     angles_deg = np.column_stack([columns["pitch"], columns["yaw"], columns["roll"]])
+    return _later_stages(args, out_dir, t_s, angles_deg, estimates)
+
+
+def _later_stages(args: argparse.Namespace, out_dir: Path, t_s, angles_deg, estimates) -> int:  # noqa: ANN001
+    """indicators.json / report.html and the optional session record, from (t_s, angles_deg)."""
     # ---- later stages: indicators.json / report.html from (t_s, angles_deg) go here (gait engineer) ----
     from walkmon.commands.indicators import gait_outputs, summary_line  # noqa: PLC0415
 
