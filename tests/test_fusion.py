@@ -193,3 +193,16 @@ def test_broad_real_trial_inclination_within_bounds() -> None:
     rmse_deg = float(np.sqrt(np.mean(incl**2)))
     # without gravity correction the gyro alone drifts far more; the filter stays within a few degrees
     assert rmse_deg < 3.0, rmse_deg
+
+
+def test_extrinsics_flag_single_axis_rotation() -> None:
+    """Rotation about one axis only cannot fix the IMU-camera rotation: the estimate says so."""
+    t = np.arange(0, 10, 1 / 200.0)
+    rate = np.radians(20.0) * np.sin(2 * np.pi * 1.0 * t)
+    gyro = np.column_stack([rate, 0 * t, 0 * t]) + np.random.default_rng(0).normal(0, 1e-3, (len(t), 3))
+    ft = np.arange(0, 10, 1 / FPS)
+    angle = -np.radians(20.0) / (2 * np.pi) * np.cos(2 * np.pi * ft) + np.radians(20.0) / (2 * np.pi)
+    R = np.array([exp_so3(np.array([a, 0.0, 0.0])) for a in angle])
+    est = estimate_extrinsics(t, gyro, ft, R)
+    assert not est.well_conditioned
+    assert est.axis_excitation < 0.1

@@ -265,6 +265,10 @@ def fuse_video_columns(
         info["extrinsics_estimate"] = f"not estimated: {exc}"
         if args.imu_extrinsics == "estimate":
             raise
+    if args.imu_extrinsics == "estimate" and ext is not None and not ext.well_conditioned:
+        msg = (f"cannot estimate the IMU-camera rotation from this recording (it rotated about one axis only: "
+               f"excitation {ext.axis_excitation:.3f}, correlation {ext.correlation:.2f}); walk longer or give none")
+        raise InvalidInputError(msg)
     if args.imu_extrinsics == "estimate" and ext is not None:
         settings = FusionSettings(camera_from_imu=tuple(ext.camera_from_imu.ravel()), time_offset_s=ext.time_offset_s)
         _log.info("using the estimated extrinsics (residual %.2f deg/s)", ext.residual_deg_s)

@@ -6,7 +6,9 @@ IMU's (IMU axes). The rate *magnitudes* do not depend on the mounting, so the ti
 maximises their correlation (1 ms grid, refined with a parabola). With the offset fixed, the rotation is the
 least-squares fit of the rate vectors (Wahba's problem, solved by SVD), done twice with outliers (visual
 failures) removed after the first pass. The fit's residual (RMS rate disagreement, °/s) says how much to
-trust the result: compare it with the visual rate noise (a few °/s for a good estimator at 30 fps).
+trust the result: compare it with the visual rate noise (a few °/s for a good estimator at 30 fps), and
+``well_conditioned`` says whether the camera turned about at least two axes (otherwise the rotation about the
+one excited axis is all the data can tell).
 
 Conventions: ``camera_from_imu`` maps IMU axes to camera axes (``w_camera = R @ w_imu``) and
 ``time_offset_s`` is added to IMU timestamps to put them on the video clock, as in
@@ -24,7 +26,11 @@ from numpy.typing import ArrayLike, NDArray
 from walkmon.errors import InvalidInputError
 from walkmon.imu_attitude import log_so3
 
-__all__ = ["ExtrinsicsEstimate", "estimate_extrinsics", "visual_rates_rad_s"]
+__all__ = ["MIN_AXIS_EXCITATION", "ExtrinsicsEstimate", "estimate_extrinsics", "visual_rates_rad_s"]
+
+#: Second-largest over largest singular value of the rate cross-covariance below which the rotation is not
+#: determined (the camera turned about essentially one axis): the estimate is then flagged, not trusted.
+MIN_AXIS_EXCITATION = 0.1
 
 _log = logging.getLogger(__name__)
 
@@ -44,6 +50,12 @@ class ExtrinsicsEstimate:
     correlation: float
     n_intervals: int
     rotation_deg: float
+    axis_excitation: float = 1.0
+
+    @property
+    def well_conditioned(self) -> bool:
+        """True when the recording rotated about at least two axes enough to fix the rotation."""
+        return self.axis_excitation >= MIN_AXIS_EXCITATION and self.correlation >= 0.5
 
     def __post_init__(self) -> None:
         self.camera_from_imu.setflags(write=False)
@@ -56,6 +68,8 @@ class ExtrinsicsEstimate:
             "correlation": round(self.correlation, 4),
             "n_intervals": self.n_intervals,
             "rotation_deg": round(self.rotation_deg, 3),
+            "axis_excitation": round(self.axis_excitation, 4),
+            "well_conditioned": self.well_conditioned,
         }
 
 
@@ -160,6 +174,10 @@ def estimate_extrinsics(
         med = np.median(err)
         mad = np.median(np.abs(err - med)) + 1e-9
         keep = err < med + 5.0 * 1.4826 * mad
+    centred_c = w_c[keep] - w_c[keep].mean(0)
+    centred_i = w_imu[keep] - w_imu[keep].mean(0)
+    sv = np.linalg.svd(centred_c.T @ centred_i, compute_uv=False)
+    excitation = float(sv[1] / sv[0]) if sv[0] > 0 else 0.0
     err = np.linalg.norm(w_c[keep] - ((w_imu[keep] - bias) @ rot.T), axis=1)
     residual = float(np.degrees(np.sqrt(np.mean(err**2))))
     result = ExtrinsicsEstimate(
@@ -169,6 +187,7 @@ def estimate_extrinsics(
         correlation=float(scores[k]),
         n_intervals=int(keep.sum()),
         rotation_deg=float(np.degrees(np.linalg.norm(log_so3(rot)))),
+        axis_excitation=excitation,
     )
     _log.info("IMU-camera extrinsics: %s", result.to_dict())
     return result
