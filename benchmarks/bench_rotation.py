@@ -18,6 +18,7 @@ fast/paper measured on the same frames is quoted too.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -31,7 +32,7 @@ import numpy as np
 from walkmon.calibration import read_camera_yaml
 from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
 from walkmon.drivers.video_file import VideoFile
-from walkmon.rotation import RotationEstimator, RotationSettings
+from walkmon.rotation import DEFAULT_ROTATION_SETTINGS, RotationEstimator, RotationSettings
 from walkmon.tables import read_table
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -171,6 +172,7 @@ def main(argv: list[str] | None = None) -> int:
         "video": "640x480 30 fps mp4 from walkmon.simulate (noise, motion blur, compression), seed %d" % args.seed,
         "targets_fast": TARGETS,
         "paper_seconds": paper_s,
+        "settings": dataclasses.asdict(DEFAULT_ROTATION_SETTINGS),
     }
     lines = [
         "# Rotation benchmark",
