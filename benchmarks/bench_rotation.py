@@ -70,10 +70,17 @@ def truth_relative(d: Path) -> tuple[np.ndarray, np.ndarray]:
     return tr["t"], angles_deg_from_rotation(Rs[0].T @ Rs)
 
 
-def run_method(d: Path, method: str, max_frames: int | None) -> tuple[np.ndarray, tuple[float, float], dict]:
+#: Ablations of the fast method (``--variants``): what the half-resolution tracking and the keyframe window buy.
+VARIANTS = {
+    "fast, full-res tracking": {"tracking_scale": 1.0, "klt_levels": 3},
+    "fast, no keyframe window": {"keyframe_window": 1},
+}
+
+
+def run_method(d: Path, method: str, max_frames: int | None, overrides: dict | None = None) -> tuple[np.ndarray, tuple[float, float], dict]:
     """Angles, (wall seconds, CPU seconds of this process) for decode + estimation, and model counts."""
     camera = read_camera_yaml(d / "camera.yaml")
-    est = RotationEstimator(camera, RotationSettings(method=method))
+    est = RotationEstimator(camera, RotationSettings(method=method, **(overrides or {})))
     angles, models = [], {}
     t0, c0 = time.perf_counter(), time.process_time()
     with VideoFile(d / "video.mp4", decode_threads=1) as video:
@@ -118,6 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seconds", type=float, default=16.0, help="length of each walk (default 16)")
     p.add_argument("--paper-seconds", type=float, default=None, help="run paper on the first N s (default 8; quick 4)")
     p.add_argument("--no-paper", action="store_true", help="fast method only")
+    p.add_argument("--variants", action="store_true", help="also run the fast-method ablations (VARIANTS)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--cache", default=os.environ.get("WALKMON_BENCH_CACHE", "/tmp/walkmon_bench_sims"))
     p.add_argument("--out", default=str(RESULTS / "rotation"), help="results path without suffix")
@@ -141,6 +149,13 @@ def main(argv: list[str] | None = None) -> int:
         paper_frames = int(round(paper_s * fps_video))
         rows.append(row)
         sys.stderr.write(f"  fast  {spec['name']}: {row}\n")
+        for vname, overrides in VARIANTS.items() if args.variants else ():
+            vest, velapsed, vmodels = run_method(d, "fast", None, overrides)
+            vrow = {"method": vname, "walk": spec["name"], **metrics(t, vest, truth), "overrides": overrides}
+            vrow["fps"] = round(vrow["frames"] / velapsed[0], 1)
+            vrow["cpu_fps"] = round(vrow["frames"] / velapsed[1], 1)
+            vrow["models"] = vmodels
+            rows.append(vrow)
         if args.no_paper or spec["seconds"] > 30:
             continue
         _, fast_elapsed_sub, _ = run_method(d, "fast", paper_frames)
@@ -216,8 +231,8 @@ def main(argv: list[str] | None = None) -> int:
     sys.stdout.write(text + "\n")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.with_suffix(".md").write_text(text, encoding="utf-8")
-    out.with_suffix(".json").write_text(json.dumps({"info": info, "rows": rows}, indent=2) + "\n", encoding="utf-8")
+    Path(f"{out}.md").write_text(text, encoding="utf-8")
+    Path(f"{out}.json").write_text(json.dumps({"info": info, "rows": rows}, indent=2) + "\n", encoding="utf-8")
     return 0
 
 
