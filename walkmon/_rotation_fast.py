@@ -44,7 +44,6 @@ class FastEngine:
         self._criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
         self._orientation = np.eye(3)
         self._prev_small: NDArray[np.uint8] | None = None
-        self._prev_pyr = None
         self._pts = np.zeros((0, 1, 2), np.float32)  # current track positions, tracking resolution
         self._kf_q = np.zeros((0, 3))  # the tracks' normalised homogeneous coordinates in the keyframe
         self._ids = np.zeros(0, np.int64)  # a number per track, to find the same track in older keyframes
@@ -171,17 +170,14 @@ class FastEngine:
             return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES)
         if self._prev_small is not None and np.array_equal(small, self._prev_small):
             return self._hold(t_s, EstimateStatus.REPEATED_FRAME, self._pts.shape[0])
-        # OpenCV's Python binding cannot take prebuilt pyramids (opencv#4777), so LK builds both each frame.
-        pyr = small
-
-        if self._prev_pyr is None:
+        if self._prev_small is None:
             first = not self.started
             self.started = True
             self._lose_tracks()
             self._new_keyframe(small)
             if self._pts.shape[0] < s.min_inliers:
                 return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, self._pts.shape[0])
-            self._prev_pyr, self._prev_small = pyr, small
+            self._prev_small = small
             status = EstimateStatus.FIRST_FRAME if first else EstimateStatus.OK
             return make_estimate(
                 t_s, self._orientation, n_inliers=self._pts.shape[0], model="identity" if first else "hold",
@@ -190,8 +186,9 @@ class FastEngine:
 
         n_before = self._pts.shape[0]
         if n_before:
+            # OpenCV's Python binding cannot take prebuilt pyramids (opencv#4777), so LK builds both each frame.
             nxt, st, _err = cv2.calcOpticalFlowPyrLK(
-                self._prev_pyr, pyr, self._pts, None, winSize=(s.klt_window_px, s.klt_window_px),
+                self._prev_small, small, self._pts, None, winSize=(s.klt_window_px, s.klt_window_px),
                 maxLevel=s.klt_levels, criteria=self._criteria,
             )
             w, h = self._track_size
@@ -200,7 +197,7 @@ class FastEngine:
             ok &= (p[:, 0] >= 0) & (p[:, 1] >= 0) & (p[:, 0] <= w - 1) & (p[:, 1] <= h - 1)
             self._pts = nxt
             self._keep(ok)
-        self._prev_pyr, self._prev_small = pyr, small
+        self._prev_small = small
         n = self._pts.shape[0]
         if n < s.min_inliers:
             # Lost track (cap removed onto a new view, sudden blur): restart from here, holding orientation.
@@ -249,8 +246,8 @@ class FastEngine:
             or rel_deg > s.keyframe_max_rotation_deg
         )
         if new_kf:
-            self._new_keyframe(small)
+            self._new_keyframe(small)  # may refine self._orientation over the keyframe window
         return make_estimate(
-            t_s, orientation, n_inliers=n_inliers, model=model, status=EstimateStatus.OK, n_tracks=n,
+            t_s, self._orientation, n_inliers=n_inliers, model=model, status=EstimateStatus.OK, n_tracks=n,
             residual_px=float(np.median(residuals)), keyframe=new_kf,
         )
