@@ -105,18 +105,21 @@ def test_fusion_beats_drifting_vision_and_rejects_outliers(walk) -> None:  # noq
     assert fused.visual_used.sum() > 0.8 * len(ft)
 
 
-def test_good_vision_pulls_the_fusion_towards_truth_on_yaw(walk) -> None:  # noqa: ANN001
-    """With a gyro whose bias is unknown at the start (no still period), precise visual increments must
-    correct the yaw drift that gravity cannot see."""
+def test_recording_without_a_still_start(walk) -> None:  # noqa: ANN001
+    """The recording starts mid-walk: the gyro bias (0.3-0.7 deg/s) is unknown at first. The offline second pass
+    (bias from the first pass, gravity from the whole recording) keeps IMU-only and fused within the targets;
+    a single causal pass of the IMU alone would drift by degrees (benchmarks/results/fusion.md)."""
     imu, ft, R = walk["imu"], walk["ft"], walk["R"]
     start = np.searchsorted(imu.t_s, 2.5)  # cut the initial standing: the filter starts while walking
     t, g, a = imu.t_s[start:], imu.gyroscope_rps[start:], imu.accelerometer_mps2[start:]
     fsel = ft >= t[0]
-    ft2 = ft[fsel]
     truth = angles_deg_from_rotation(np.einsum("ji,njk->nik", R[fsel][0], R[fsel]))
-    imu_only = fuse_recording(t, g, a, ft2)
-    fused = fuse_recording(t, g, a, ft2, noisy_vision(R[fsel], 0.01, seed=3))
-    assert rmse(fused.angles_deg, truth)[1] < 0.5 * rmse(imu_only.angles_deg, truth)[1]
+    imu_only = fuse_recording(t, g, a, ft[fsel])
+    fused = fuse_recording(t, g, a, ft[fsel], noisy_vision(R[fsel], 0.01, seed=3))
+    assert np.all(rmse(fused.angles_deg, truth) < [0.3, 0.5, 0.3]), rmse(fused.angles_deg, truth)
+    assert rmse(imu_only.angles_deg, truth)[1] < 0.5
+    bias_err = np.degrees(np.abs(fused.gyroscope_bias_rad_s[0] - imu.gyroscope_bias_rps))
+    assert np.all(bias_err < 0.05), bias_err  # the second pass starts from a learnt bias
 
 
 def test_extrinsics_and_time_offset_are_recovered(walk) -> None:  # noqa: ANN001

@@ -250,7 +250,8 @@ def fuse_recording(
     """Offline fusion of a whole recording, estimates at ``frame_t_s`` (video clock).
 
     Without ``visual_rotations`` this is IMU-only attitude sampled at the given times. The filter starts from
-    the IMU's first second (mean gravity; mean gyro as bias when still then). Frames before the first IMU
+    the IMU's first second (mean gravity; mean gyro as bias when still then). When the recording does not
+    start still, a second pass starts from the first pass's final bias estimate. Frames before the first IMU
     sample get the first estimate (angles 0).
     """
     t = np.asarray(imu_t_s, dtype=float).reshape(-1)
@@ -277,20 +278,42 @@ def fuse_recording(
     settings = replace(settings, attitude=replace(settings.attitude, rate_hz_nominal=float(rate)))
     fusion = CameraImuFusion(settings)
     a0, b0, b0_std, tilt_std = initial_state_from_rest(t, g, a)
-    fusion.reset(
-        initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0, initial_bias_std_rad_s=b0_std, initial_tilt_std_deg=tilt_std
-    )
     t_video = t + settings.time_offset_s
-    estimates = []
-    i = 0
-    for k, tk in enumerate(ft):
-        while i < len(t) and t_video[i] <= tk:
-            fusion.push_imu(t[i], g[i], a[i])
-            i += 1
-        if i == 0:  # frame before the first IMU sample
-            fusion.push_imu(t[0], g[0], a[0])
-            i = 1
-        estimates.append(fusion.push_frame(max(tk, t_video[0]), None if Rv is None else Rv[k], bool(ok[k])))
+
+    def one_pass(
+        bias: NDArray[np.float64] | None, bias_std: float | None, accel0: NDArray[np.float64], tilt: float | None
+    ) -> list[FusedEstimate]:
+        fusion.reset(
+            initial_accelerometer_m_s2=accel0, initial_bias_rad_s=bias, initial_bias_std_rad_s=bias_std,
+            initial_tilt_std_deg=tilt,
+        )
+        estimates = []
+        i = 0
+        for k, tk in enumerate(ft):
+            while i < len(t) and t_video[i] <= tk:
+                fusion.push_imu(t[i], g[i], a[i])
+                i += 1
+            if i == 0:  # frame before the first IMU sample
+                fusion.push_imu(t[0], g[0], a[0])
+                i = 1
+            estimates.append(fusion.push_frame(max(tk, t_video[0]), None if Rv is None else Rv[k], bool(ok[k])))
+        return estimates
+
+    estimates = one_pass(b0, b0_std, a0, tilt_std)
+    if b0 is None:
+        # No still period at the start: the bias is only learnt while moving and the first second's mean
+        # acceleration is a poor gravity reference, so the first seconds would keep both errors. Offline we can
+        # do better: a second pass starts from the first pass's final bias estimate (with its uncertainty) and
+        # from gravity as the mean specific force over the whole recording rotated into the first frame with
+        # the first pass's orientations (walking accelerations average out over the recording).
+        final_std = float(np.sqrt(np.max(np.diag(fusion._filter.kf.P)[3:6])))
+        R_ci = settings.camera_from_imu_matrix
+        idx = np.clip(np.searchsorted(t_video, ft), 0, len(t) - 1)
+        rel = np.array([e.rotation for e in estimates])
+        mean_f0 = np.einsum("nij,nj->i", rel, a[idx] @ R_ci.T) / len(ft)
+        a0_second = R_ci.T @ mean_f0
+        estimates = one_pass(np.asarray(estimates[-1].gyroscope_bias_rad_s), max(final_std, 1e-4), a0_second, 0.5)
+        _log.info("no still start: second pass from the first pass's bias (std %.4f deg/s)", np.degrees(final_std))
     return FusionTrack(
         t_s=ft.copy(),
         angles_deg=np.array([e.angles_deg for e in estimates]),
