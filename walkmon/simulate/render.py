@@ -99,12 +99,16 @@ class _MipAtlas:
     height: NDArray[np.float32]
     n_levels: int
     scale: NDArray[np.float32]
-    inv_width: NDArray[np.float32]
-    inv_height: NDArray[np.float32]
 
     @classmethod
-    def from_texture(cls, tex: Texture) -> _MipAtlas:
+    def from_texture(cls, tex: Texture, gain: float = 1.0) -> _MipAtlas:
+        h0, w0 = tex.levels[0].shape[:2]
+        if any(lv.shape[:2] != (h0 >> k, w0 >> k) for k, lv in enumerate(tex.levels)):
+            msg = "texture sizes must be powers of two so that every mip level halves exactly"
+            raise ValueError(msg)
         levels = [np.pad(lv, ((_PAD, _PAD), (_PAD, _PAD), (0, 0)), mode="wrap") for lv in tex.levels]
+        if gain != 1.0:
+            levels = [np.clip(np.rint(lv * gain), 0, 255).astype(np.uint8) for lv in levels]
         h0, w0 = levels[0].shape[:2]
         rest_h = sum(lv.shape[0] for lv in levels[1:])
         rest_w = max((lv.shape[1] for lv in levels[1:]), default=0)
@@ -130,8 +134,6 @@ class _MipAtlas:
             height,
             n,
             np.array([0.5**k for k in range(n)], f32),
-            (1.0 / width).astype(f32),
-            (1.0 / height).astype(f32),
         )
 
     def sample(self, u: NDArray[np.float32], v: NDArray[np.float32], level: NDArray[np.float32]) -> NDArray:
@@ -139,16 +141,19 @@ class _MipAtlas:
         level = np.clip(level, np.float32(0.0), np.float32(self.n_levels - 1.0001))
         l0 = level.astype(np.int32)
         frac = (level - l0)[:, None]
-        up, vp = u + np.float32(0.5), v + np.float32(0.5)
+        # wrap once at level 0: the levels halve exactly (power-of-two sizes), so a wrapped level-0 coordinate
+        # scaled by 2^-l is wrapped at level l too (np.mod is several times slower than x - floor(x/w)*w)
+        w0, h0 = self.width[0], self.height[0]
+        up = u + np.float32(0.5)
+        up -= np.floor(up * (np.float32(1.0) / w0)) * w0
+        vp = v + np.float32(0.5)
+        vp -= np.floor(vp * (np.float32(1.0) / h0)) * h0
         acc = None
         for lk in (l0, l0 + 1):
             scale = self.scale[lk]
             mu = up * scale
-            mv = vp * scale
-            # wrap into [0, size): x - floor(x / size) * size (np.mod is several times slower)
-            mu -= np.floor(mu * self.inv_width[lk]) * self.width[lk]
-            mv -= np.floor(mv * self.inv_height[lk]) * self.height[lk]
             mu += self.offset_x[lk]
+            mv = vp * scale
             mv += self.offset_y[lk]
             vals = _remap_points(self.image, mu, mv)
             acc = vals if acc is None else acc + (vals - acc) * frac
@@ -180,7 +185,11 @@ class Renderer:
         self.scene = scene
         self.settings = settings
         rays = pixel_rays(camera)
-        self._atlases = [_MipAtlas.from_texture(t) for t in (scene.ground, scene.left_wall, scene.right_wall, scene.far)]
+        # surface brightness (the sun-side wall brighter, the shaded one darker) is baked into the atlases
+        self._atlases = [
+            _MipAtlas.from_texture(t, gain)
+            for t, gain in ((scene.ground, 1.0), (scene.left_wall, 0.82), (scene.right_wall, 1.08), (scene.far, 0.95))
+        ]
         self._rays_planar = tuple(np.ascontiguousarray(rays[:, i], dtype=np.float32) for i in range(3))
         # wall heights along z and the far skyline along x as lookup tables (faster than searchsorted)
         zq = (np.arange(int(np.ceil(scene.block_edges_z_m[-1] / _LUT_STEP_M))) + 0.5) * _LUT_STEP_M
@@ -323,12 +332,7 @@ class Renderer:
             img[sky] = hor + (zen - hor) * elev
         fog_c = np.array(sc.sky_horizon_bgr, np.float32)
         period = float(sc.block_edges_z_m[-1])
-        for lab, tex, brightness in (
-            (0, sc.ground, 1.0),
-            (1, sc.left_wall, 0.82),
-            (2, sc.right_wall, 1.08),
-            (3, sc.far, 0.95),
-        ):
+        for lab, tex in enumerate((sc.ground, sc.left_wall, sc.right_wall, sc.far)):
             idx = np.nonzero(label == lab)[0]
             if idx.size == 0:
                 continue
@@ -348,10 +352,9 @@ class Renderer:
                 u = (np.float32(px - sc.far_edges_x_m[0]) + s * dxs[idx]) * inv
                 v = rows - (np.float32(H - py) - s * dys[idx]) * inv
                 cos_i = np.abs(dzs[idx])
-            level = self._lod[idx] + np.log2(s * inv) - np.float32(0.5) * np.log2(np.maximum(cos_i, np.float32(0.02)))
+            # footprint: distance / pixel size, stretched by the incidence: log2(s / sqrt(cos)) = 0.5 log2(s² / cos)
+            level = self._lod[idx] + np.float32(0.5) * np.log2((s * inv) ** 2 / np.maximum(cos_i, np.float32(0.02)))
             col = self._atlases[lab].sample(u, v, level)
-            if brightness != 1.0:
-                col *= np.float32(brightness)
             fog = 1.0 - np.exp(-s * np.float32(1.0 / st.fog_distance_m))
             img[idx] = col + (fog_c - col) * fog[:, None]
         return img.reshape(self.camera.height_px, self.camera.width_px, 3), dist, (dxs, dys, dzs)
