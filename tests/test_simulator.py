@@ -22,9 +22,10 @@ from walkmon.consts import (
     angles_deg_from_rotation,
     rotation_from_angles_deg,
 )
-from walkmon.errors import InvalidInputError
+from walkmon.errors import ConfigError, InvalidInputError
 from walkmon.simulate import (
     GaitModel,
+    ImuSettings,
     RenderSettings,
     SimulatedSession,
     iter_frames,
@@ -344,6 +345,27 @@ def test_imu_at_rest_reads_gravity_and_its_bias(long_imu) -> None:
     np.testing.assert_allclose(gyro, bias, atol=np.radians(0.03))
     walking = (imu["t"] > 4.0) & (imu["t"] < 14.0)
     assert np.ptp(imu["ay"][walking]) > 3.0  # the bob shows in the vertical specific force
+    # white noise of the configured size (truth is static while standing, so the spread is the noise)
+    gyro_std = np.degrees(np.column_stack([imu["gx"], imu["gy"], imu["gz"]])[rest].std(axis=0))
+    np.testing.assert_allclose(gyro_std, meta["imu"]["gyroscope_noise_dps"], rtol=0.15)
+    acc_std = np.column_stack([imu["ax"], imu["ay"], imu["az"]])[rest].std(axis=0)
+    np.testing.assert_allclose(acc_std, meta["imu"]["accelerometer_noise_mps2"], rtol=0.15)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: ImuSettings(rate_hz=0.0),
+        lambda: ImuSettings(gyroscope_noise_dps=-1.0),
+        lambda: ImuSettings(gyroscope_bias_min_dps=1.0, gyroscope_bias_max_dps=0.5),
+        lambda: RenderSettings(exposure_s=-0.01),
+        lambda: RenderSettings(max_blur_taps=0),
+        lambda: RenderSettings(read_noise_dn=-1.0),
+    ],
+)
+def test_bad_settings_are_config_errors(make) -> None:
+    with pytest.raises(ConfigError):
+        make()
 
 
 def _integrate(t: np.ndarray, gyro: np.ndarray) -> np.ndarray:

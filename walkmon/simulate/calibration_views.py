@@ -3,6 +3,7 @@ simulated camera, seen through the same projection (lens distortion included) as
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import cv2
@@ -15,6 +16,8 @@ from walkmon.errors import InvalidInputError
 from walkmon.simulate.render import pixel_rays
 
 __all__ = ["ChessboardView", "render_chessboard_views"]
+
+_log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,4 +118,5 @@ def render_chessboard_views(
         img = img + rng.normal(0.0, noise_dn, img.shape)
         image = np.clip(np.rint(img), 0, 255).astype(np.uint8)
         views.append(ChessboardView(image, R, t, camera.pixels_from_camera_points(obj @ R.T + t)))
+    _log.debug("rendered %d chessboard views in %d attempts", len(views), attempts)
     return views

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walkmon.consts import GRAVITY_MS2
-from walkmon.errors import InvalidInputError
+from walkmon.errors import ConfigError
 from walkmon.simulate.gait import GaitModel
 
 __all__ = ["DEFAULT_IMU_SETTINGS", "ImuSamples", "ImuSettings", "simulate_imu"]
@@ -40,7 +40,7 @@ class ImuSettings:
     def __post_init__(self) -> None:
         if not (np.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 10000.0):
             msg = f"IMU rate must be in [1, 10000] Hz, got {self.rate_hz}"
-            raise InvalidInputError(msg)
+            raise ConfigError(msg)
         values = (
             self.gyroscope_noise_dps,
             self.gyroscope_bias_min_dps,
@@ -50,7 +50,7 @@ class ImuSettings:
         )
         if any(not np.isfinite(v) or v < 0 for v in values) or self.gyroscope_bias_min_dps > self.gyroscope_bias_max_dps:
             msg = f"IMU noise and bias settings must be finite, >= 0 and min <= max: {self}"
-            raise InvalidInputError(msg)
+            raise ConfigError(msg)
 
     def to_dict(self) -> dict[str, float]:
         return asdict(self)
