@@ -26,10 +26,16 @@ from walkmon.errors import (
 )
 from walkmon.rotation import EstimateStatus, RotationEstimate, RotationEstimator, RotationSettings
 from walkmon.indicators import IndicatorSettings, Indicators, compute_indicators, read_indicators, write_indicators
+from walkmon.fusion import CameraImuFusion, FusionSettings
+from walkmon.imu_attitude import AttitudeSettings, ImuAttitudeFilter
 
 __all__ = [
     "AXES",
     "GRAVITY_MS2",
+    "AttitudeSettings",
+    "CameraImuFusion",
+    "FusionSettings",
+    "ImuAttitudeFilter",
     "CameraModel",
     "ConfigError",
     "EstimateStatus",

@@ -26,7 +26,6 @@ import logging
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 from numpy.typing import ArrayLike, NDArray
 
 from walkmon.consts import GRAVITY_MS2, angles_deg_from_rotation, gravity_angles_deg_from_gravity, skew
@@ -232,6 +231,8 @@ class ImuAttitudeFilter:
     ) -> None:
         """Forget everything; optionally start from a known gravity reading and bias (e.g. a still period,
         then ``initial_bias_std_rad_s`` / ``initial_tilt_std_deg`` say how well they are known)."""
+        from filterpy.kalman import KalmanFilter  # noqa: PLC0415 - filterpy's import takes ~2 s (scipy.stats)
+
         s = self.settings
         dim = 6 + 3 * self.n_clones
         self.kf = KalmanFilter(dim_x=dim, dim_z=3)
