@@ -163,7 +163,8 @@ def rotation_only_fit(
 
 def essential_from_pose(R: ArrayLike, c: ArrayLike) -> NDArray[np.float64]:
     """``E = [c]x R`` so that ``q0.T E q1 = 0`` for matches (see the module docstring)."""
-    return skew(np.asarray(c, dtype=float)) @ np.asarray(R, dtype=float)
+    cv = np.asarray(c, dtype=float)
+    return (_skew3(cv) if cv.shape == (3,) else skew(cv)) @ np.asarray(R, dtype=float)
 
 
 def sampson_residuals_px(
@@ -188,6 +189,22 @@ def _sampson(R: NDArray[np.float64], c: NDArray[np.float64], q0: NDArray[np.floa
     return e / np.sqrt(np.maximum(den, 1e-30))
 
 
+#: Generators of rotations about x, y, z (``skew`` of the unit vectors), for the Jacobian's perturbations.
+_GENERATORS = np.array(
+    [[[0, 0, 0], [0, 0, -1], [0, 1, 0]], [[0, 0, 1], [0, 0, 0], [-1, 0, 0]], [[0, -1, 0], [1, 0, 0], [0, 0, 0]]],
+    dtype=float,
+)
+
+
+def _sampson_batch(Es: NDArray[np.float64], q0: NDArray[np.float64], q1: NDArray[np.float64]):
+    """Signed Sampson residuals (normalised units) for a stack of essential matrices (K, 3, 3) -> (K, N)."""
+    Eq1 = Es @ q1.T  # (K, 3, N)
+    Etq0 = q0 @ Es  # (K, N, 3)
+    e = np.sum(q0.T * Eq1, axis=1)
+    den = Eq1[:, 0] ** 2 + Eq1[:, 1] ** 2 + Etq0[:, :, 0] ** 2 + Etq0[:, :, 1] ** 2
+    return e / np.sqrt(np.maximum(den, 1e-30))
+
+
 def centre_from_rotation(q0: NDArray[np.float64], q1: NDArray[np.float64], R: ArrayLike, weights=None):
     """Least-squares baseline direction for a known rotation: ``c`` minimising ``sum w (c . (q0 x R q1))^2``."""
     A = np.cross(q0, q1 @ np.asarray(R, dtype=float).T)
@@ -198,10 +215,11 @@ def centre_from_rotation(q0: NDArray[np.float64], q1: NDArray[np.float64], R: Ar
 
 
 def _tangent_basis(c: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Two unit vectors orthogonal to the unit vector ``c`` (and to each other), as columns (3, 2)."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(c[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(c, helper)
+    u = _skew3(c) @ helper
     u /= np.linalg.norm(u)
-    v = np.cross(c, u)
+    v = _skew3(c) @ u
     return np.stack([u, v], axis=1)
 
 
@@ -245,20 +263,23 @@ def refine_relative_pose(
         c = np.asarray(centre_init, dtype=float)
         c = c / np.linalg.norm(c)
         w = cauchy_weights(sampson_residuals_px(essential_from_pose(R, c), a, b, focal_px), scale_px)
-    eps = 1e-6
+    eps = 1e-7
     for _ in range(max(1, iterations)):
         B = _tangent_basis(c)
-        r = _sampson(R, c, a, b)
         # Forward-difference Jacobian of the full Sampson residual (its denominator depends on R and c too;
         # treating it as constant turns Gauss-Newton into a slow fixed-point iteration along the
-        # pitch/baseline valley that ground-only views create).
-        J = np.empty((r.size, 5))
-        for k in range(3):
-            dv = np.zeros(3)
-            dv[k] = eps
-            J[:, k] = (_sampson(rotation_from_rotvec(dv) @ R, c, a, b) - r) / eps
-        for k in range(2):
-            J[:, 3 + k] = (_sampson(R, c + eps * B[:, k], a, b) - r) / eps
+        # pitch/baseline valley that ground-only views create). All six E matrices are evaluated in one batch;
+        # rotation perturbations are first order, (I + eps [e_k]x) R, exact to O(eps^2).
+        C = _skew3(c)
+        E0 = C @ R
+        Es = np.empty((6, 3, 3))
+        Es[0] = E0
+        Es[1:4] = E0 + eps * (C @ _GENERATORS @ R)
+        Es[4] = _skew3(c + eps * B[:, 0]) @ R
+        Es[5] = _skew3(c + eps * B[:, 1]) @ R
+        rs = _sampson_batch(Es, a, b)
+        r = rs[0]
+        J = ((rs[1:] - r) / eps).T
         w = cauchy_weights(focal_px * r, scale_px)
         JW = J * w[:, None]
         H = JW.T @ J + 1e-12 * np.eye(5)
