@@ -301,8 +301,8 @@ def test_pixel_motion_matches_projection_under_true_poses(distortion) -> None:
     A = cv2.cvtColor(r.render_ideal(RA, pA), cv2.COLOR_BGR2GRAY)
     B = cv2.cvtColor(r.render_ideal(RB, pB), cv2.COLOR_BGR2GRAY)
     X = r.hit_points(RA, pA)
-    hw = 15
-    win = cv2.createHanningWindow((2 * hw + 1, 2 * hw + 1), cv2.CV_32F)
+    hw = 16  # even patches: cv2.phaseCorrelate is biased by half a pixel on odd sizes
+    win = cv2.createHanningWindow((2 * hw, 2 * hw), cv2.CV_32F)
 
     def residuals(R_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         res, motion = [], []
@@ -314,8 +314,8 @@ def test_pixel_motion_matches_projection_under_true_poses(distortion) -> None:
                 ub, vb = int(round(uv[0])), int(round(uv[1]))
                 if not (hw + 2 <= ub < W - hw - 2 and hw + 2 <= vb < H - hw - 2):
                     continue
-                pa = A[v - hw : v + hw + 1, u - hw : u + hw + 1].astype(np.float32)
-                pb = B[vb - hw : vb + hw + 1, ub - hw : ub + hw + 1].astype(np.float32)
+                pa = A[v - hw : v + hw, u - hw : u + hw].astype(np.float32)
+                pb = B[vb - hw : vb + hw, ub - hw : ub + hw].astype(np.float32)
                 if pa.std() < 4:
                     continue
                 (dx, dy), _ = cv2.phaseCorrelate(pa, pb, win)
@@ -330,6 +330,57 @@ def test_pixel_motion_matches_projection_under_true_poses(distortion) -> None:
     assert np.percentile(res, 90) < 0.7
     wrong, _ = residuals(RB @ rotation_from_angles_deg(0.0, 0.4, 0.0))
     assert np.median(wrong) > 1.0  # the check notices a 0.4° error
+
+
+def test_rolling_shutter_rows_see_the_scene_at_their_own_time() -> None:
+    """With a 50 ms readout, row v is exposed at t + 0.05 * ((v + 0.5) / H - 0.5): a point's motion between two
+    frames matches projection under the poses of the rows it sits on, and not under the frame-time poses."""
+    readout = 0.05
+    settings = RenderSettings(exposure_s=0.0, defocus_sigma_px=0.0, vignetting=0.0, read_noise_dn=0.0,
+                              shot_noise_gain=0.0, rolling_shutter_s=readout)
+    session = SimulatedSession("right_foot_drag", 8.0, 2, W, H, render_settings=settings)
+    r, cam, model = session.renderer, session.camera, session.model
+    rng = np.random.default_rng(0)
+    tA, tB = 4.0, 4.1
+    A = cv2.cvtColor(session.render(tA, rng), cv2.COLOR_BGR2GRAY)
+    B = cv2.cvtColor(session.render(tB, rng), cv2.COLOR_BGR2GRAY)
+
+    def row_time(t: float, v: float) -> float:
+        return t + readout * ((v + 0.5) / H - 0.5)
+
+    hw = 16  # even patches: cv2.phaseCorrelate is biased by half a pixel on odd sizes
+    win = cv2.createHanningWindow((2 * hw, 2 * hw), cv2.CV_32F)
+    res_rs, res_global = [], []
+    for v in range(30, H - 30, 20):
+        (Ra,), (pa,) = model.pose([row_time(tA, v)])
+        dist, _, D = r.cast(Ra, pa, (v, v + 1))
+        for u in range(30, W - 30, 20):
+            if not np.isfinite(dist[u]):
+                continue
+            X = pa + float(dist[u]) * np.array([D[0][u], D[1][u], D[2][u]], float)
+            vb = float(v)
+            for _ in range(4):  # the row B sees the point on depends on that row's pose
+                (Rb,), (pb,) = model.pose([row_time(tB, vb)])
+                ub, vb = cam.pixels_from_camera_points((Rb.T @ (X - pb))[None])[0]
+            (Rg,), (pg,) = model.pose([tB])
+            ug, vg = cam.pixels_from_camera_points((Rg.T @ (X - pg))[None])[0]
+            ib, jb = int(round(ub)), int(round(vb))
+            if not (hw + 2 <= ib < W - hw - 2 and hw + 2 <= jb < H - hw - 2):
+                continue
+            patch_a = A[v - hw : v + hw, u - hw : u + hw].astype(np.float32)
+            patch_b = B[jb - hw : jb + hw, ib - hw : ib + hw].astype(np.float32)
+            if patch_a.std() < 4:
+                continue
+            (dx, dy), _ = cv2.phaseCorrelate(patch_a, patch_b, win)
+            res_rs.append(np.hypot(dx - (ub - ib), dy - (vb - jb)))
+            res_global.append((abs(v - H / 2), np.hypot(dx - (ug - ib), dy - (vg - jb))))
+    res_rs, res_global = np.array(res_rs), np.array(res_global)
+    assert res_rs.size > 40
+    assert np.median(res_rs) < 0.35
+    assert np.percentile(res_rs, 90) < 0.8
+    # a global-shutter model does not fit, away from the middle row
+    far = res_global[res_global[:, 0] > H / 4, 1]
+    assert np.median(far) > 2.5 * np.median(res_rs)
 
 
 def test_imu_at_rest_reads_gravity_and_its_bias(long_imu) -> None:
@@ -361,6 +412,7 @@ def test_imu_at_rest_reads_gravity_and_its_bias(long_imu) -> None:
         lambda: RenderSettings(exposure_s=-0.01),
         lambda: RenderSettings(max_blur_taps=0),
         lambda: RenderSettings(read_noise_dn=-1.0),
+        lambda: RenderSettings(rolling_shutter_s=0.5),
     ],
 )
 def test_bad_settings_are_config_errors(make) -> None:

@@ -60,12 +60,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--height", type=_positive_int, default=480, help="image height in pixels (default 480)")
     p.add_argument("--fps", type=_positive_float, default=30.0, help="frame rate (default 30)")
     p.add_argument("--distortion", action="store_true", help="render through a lens with barrel distortion")
+    p.add_argument("--rolling-shutter-ms", type=float, default=0.0, metavar="MS",
+                   help="rolling-shutter readout time top to bottom, 0-100 ms (default 0: global shutter)")
     p.add_argument("--no-video", action="store_true", help="write truth, IMU, camera and meta only (fast)")
 
 
 def run(args: argparse.Namespace) -> int:
-    from walkmon.simulate import simulate  # noqa: PLC0415
+    from walkmon.simulate import RenderSettings, simulate  # noqa: PLC0415
 
+    settings = RenderSettings(rolling_shutter_s=args.rolling_shutter_ms / 1000.0)
     result = simulate(
         args.out,
         walk=args.walk,
@@ -76,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
         fps=args.fps,
         distortion=args.distortion,
         video=not args.no_video,
+        render_settings=settings,
     )
     what = f"{result.n_frames} frames rendered in {result.render_time_s:.1f} s" if result.video_path else "no video"
     sys.stdout.write(

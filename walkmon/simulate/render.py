@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -35,7 +36,12 @@ SURFACES = ("ground", "left_wall", "right_wall", "far")
 class RenderSettings:
     """Camera effects. Motion blur over ``exposure_s`` centred on the frame time: each pixel is averaged along its
     own image motion with one sample per ``blur_step_px`` of motion (at most ``max_blur_taps``); noise in digital
-    numbers (0-255): standard deviation ``sqrt(read_noise_dn² + shot_noise_gain * value)``."""
+    numbers (0-255): standard deviation ``sqrt(read_noise_dn² + shot_noise_gain * value)``.
+
+    ``rolling_shutter_s`` > 0 reads the rows out over that time, top to bottom, the middle row at the frame time
+    (so truth.csv's pose is the middle row's); the image is rendered in row bands, each at its own pose, with
+    bands thin enough that the image moves less than ``rolling_shutter_step_px`` from one band to the next.
+    0 (the default) is a global shutter."""
 
     exposure_s: float = 0.008
     max_blur_taps: int = 8
@@ -46,8 +52,16 @@ class RenderSettings:
     shot_noise_gain: float = 0.03
     fog_distance_m: float = 250.0
     lod_bias: float = 0.0
+    rolling_shutter_s: float = 0.0
+    rolling_shutter_step_px: float = 0.5
 
     def __post_init__(self) -> None:
+        if not (0.0 <= self.rolling_shutter_s <= 0.1 and self.rolling_shutter_step_px > 0):
+            msg = (
+                f"rolling shutter readout must be in [0, 0.1] s (got {self.rolling_shutter_s}) "
+                f"with a positive band step (got {self.rolling_shutter_step_px} px)"
+            )
+            raise ConfigError(msg)
         if not (0.0 <= self.exposure_s <= 0.1 and 1 <= self.max_blur_taps <= 32 and self.blur_step_px > 0):
             msg = f"invalid render settings: {self}"
             raise ConfigError(msg)
@@ -217,20 +231,23 @@ class Renderer:
         self._noise_bank: list[NDArray[np.float32]] | None = None
 
     # ------------------------------------------------------------------------------------------ geometry
-    def _world_rays(self, rotation: NDArray[np.float64]) -> tuple[NDArray[np.float32], ...]:
+    def _world_rays(self, rotation: NDArray[np.float64], pixels: slice) -> tuple[NDArray[np.float32], ...]:
         """World directions of the pixel rays, as three contiguous float32 arrays (x, y, z)."""
         R = np.asarray(rotation, np.float64)
-        rx, ry, rz = self._rays_planar
+        rx, ry, rz = (r[pixels] for r in self._rays_planar)
         return tuple(
             (np.float32(R[i, 0]) * rx + np.float32(R[i, 1]) * ry + np.float32(R[i, 2]) * rz) for i in range(3)
         )
 
     def cast(
-        self, rotation: NDArray[np.float64], position_m: NDArray[np.float64]
+        self, rotation: NDArray[np.float64], position_m: NDArray[np.float64], rows: tuple[int, int] | None = None
     ) -> tuple[NDArray[np.float32], NDArray[np.int8], tuple[NDArray[np.float32], ...]]:
-        """Ray-cast one pose: distance_m (N,), label (N,) int8 (index into SURFACES, -1 = sky), world rays."""
+        """Ray-cast one pose: distance_m (N,), label (N,) int8 (index into SURFACES, -1 = sky), world rays.
+
+        ``rows = (first, stop)`` casts only those image rows (N = their pixels); default all.
+        """
         sc = self.scene
-        dxs, dys, dzs = self._world_rays(rotation)
+        dxs, dys, dzs = self._world_rays(rotation, self._pixels(rows))
         px, py, pz = (float(v) for v in position_m)
         H = sc.camera_height_m
         n = dxs.size
@@ -269,6 +286,12 @@ class Renderer:
         label[cand[ok]] = 3
         return dist, label, (dxs, dys, dzs)
 
+    def _pixels(self, rows: tuple[int, int] | None) -> slice:
+        if rows is None:
+            return slice(None)
+        w = self.camera.width_px
+        return slice(rows[0] * w, rows[1] * w)
+
     def hit_points(self, rotation: NDArray[np.float64], position_m: NDArray[np.float64]) -> NDArray[np.float64]:
         """World points (H, W, 3) seen by each pixel (inf for sky)."""
         dist, _, D = self.cast(rotation, position_m)
@@ -283,23 +306,37 @@ class Renderer:
         return self._shade(rotation, position_m)[0]
 
     def render_blurred(
-        self, rotations: NDArray[np.float64], positions_m: NDArray[np.float64], n_taps: int
+        self,
+        rotations: NDArray[np.float64],
+        positions_m: NDArray[np.float64],
+        n_taps: int,
+        *,
+        band_rotations: NDArray[np.float64] | None = None,
+        band_positions_m: NDArray[np.float64] | None = None,
     ) -> NDArray[np.float32]:
         """Motion-blurred noise-free image over an exposure from pose 0 (start) to pose 2 (end), centre pose 1.
 
-        The image is rendered once at the centre pose; every pixel's 3-D point is projected into the start and
-        end poses, and the image is averaged along that per-pixel motion (``n_taps`` samples): the same as
-        averaging sub-exposures, to first order, at a fraction of the cost.
+        The image is rendered once at the centre pose (or, for a rolling shutter, in equal row bands at
+        ``band_rotations``/``band_positions_m``, top to bottom); every pixel's 3-D point is projected into the
+        start and end poses, and the image is averaged along that per-pixel motion (``n_taps`` samples): the
+        same as averaging sub-exposures, to first order, at a fraction of the cost.
         """
         R, P = np.asarray(rotations, float), np.asarray(positions_m, float)
-        img, dist, D = self._shade(R[1], P[1])
+        if band_rotations is None or len(band_rotations) <= 1:
+            if band_rotations is not None:
+                R, P = R.copy(), P.copy()
+                R[1], P[1] = band_rotations[0], np.asarray(band_positions_m, float)[0]
+            img, dist, D = self._shade(R[1], P[1])
+            origin: tuple[Any, ...] = (np.float32(0.0),) * 3
+        else:
+            img, dist, D, origin = self._shade_bands(band_rotations, band_positions_m, P[1])
         if n_taps <= 1:
             return img
         d = np.where(np.isfinite(dist), dist, np.float32(1e4))
         pix = []
         for k in (0, 2):
             rel = (P[1] - P[k]).astype(np.float32)
-            xw = [rel[i] + d * D[i] for i in range(3)]
+            xw = [rel[i] + origin[i] + d * D[i] for i in range(3)]
             Rt = R[k].T.astype(np.float32)
             xc, yc, zc = ((Rt[i, 0] * xw[0] + Rt[i, 1] * xw[1] + Rt[i, 2] * xw[2]) for i in range(3))
             zc = np.maximum(zc, np.float32(1e-3))
@@ -315,11 +352,38 @@ class Renderer:
         acc *= np.float32(1.0 / n_taps)
         return acc
 
+    def band_rows(self, n_bands: int) -> NDArray[np.int64]:
+        """Row edges (n_bands + 1) of equal horizontal bands, top to bottom."""
+        return np.round(np.linspace(0, self.camera.height_px, n_bands + 1)).astype(np.int64)
+
+    def _shade_bands(
+        self, rotations: NDArray[np.float64], positions_m: NDArray[np.float64], origin_m: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float32], NDArray[np.float32], tuple[NDArray[np.float32], ...], tuple[NDArray, ...]]:
+        """Render row bands at their own poses; also each pixel's camera position relative to ``origin_m``."""
+        h, w = self.camera.height_px, self.camera.width_px
+        edges = self.band_rows(len(rotations))
+        img = np.empty((h, w, 3), np.float32)
+        dist = np.empty(h * w, np.float32)
+        D = tuple(np.empty(h * w, np.float32) for _ in range(3))
+        origin = tuple(np.empty(h * w, np.float32) for _ in range(3))
+        positions = np.asarray(positions_m, float)
+        for b in range(len(rotations)):
+            r0, r1 = int(edges[b]), int(edges[b + 1])
+            if r1 <= r0:
+                continue
+            sl = slice(r0 * w, r1 * w)
+            img[r0:r1], dist[sl], Db = self._shade(rotations[b], positions[b], (r0, r1))
+            for i in range(3):
+                D[i][sl] = Db[i]
+                origin[i][sl] = positions[b][i] - origin_m[i]
+        return img, dist, D, origin
+
     def _shade(
-        self, rotation: NDArray[np.float64], position_m: NDArray[np.float64]
+        self, rotation: NDArray[np.float64], position_m: NDArray[np.float64], rows: tuple[int, int] | None = None
     ) -> tuple[NDArray[np.float32], NDArray[np.float32], tuple[NDArray[np.float32], ...]]:
         sc, st = self.scene, self.settings
-        dist, label, (dxs, dys, dzs) = self.cast(rotation, position_m)
+        dist, label, (dxs, dys, dzs) = self.cast(rotation, position_m, rows)
+        lod = self._lod[self._pixels(rows)]
         px, py, pz = (float(v) for v in position_m)
         H = sc.camera_height_m
         n = dist.size
@@ -353,11 +417,11 @@ class Renderer:
                 v = rows - (np.float32(H - py) - s * dys[idx]) * inv
                 cos_i = np.abs(dzs[idx])
             # footprint: distance / pixel size, stretched by the incidence: log2(s / sqrt(cos)) = 0.5 log2(s² / cos)
-            level = self._lod[idx] + np.float32(0.5) * np.log2((s * inv) ** 2 / np.maximum(cos_i, np.float32(0.02)))
+            level = lod[idx] + np.float32(0.5) * np.log2((s * inv) ** 2 / np.maximum(cos_i, np.float32(0.02)))
             col = self._atlases[lab].sample(u, v, level)
             fog = 1.0 - np.exp(-s * np.float32(1.0 / st.fog_distance_m))
             img[idx] = col + (fog_c - col) * fog[:, None]
-        return img.reshape(self.camera.height_px, self.camera.width_px, 3), dist, (dxs, dys, dzs)
+        return img.reshape(-1, self.camera.width_px, 3), dist, (dxs, dys, dzs)
 
     def blur_taps(self, blur_px: float) -> int:
         """Samples to average along a pixel's motion of ``blur_px`` during the exposure (1 = no blur)."""

@@ -120,11 +120,13 @@ class SimulatedSession:
         return simulate_imu(self.model, self.imu_settings)
 
     def _blur_px(self, t_s: float) -> float:
-        """Image motion (pixels) during the exposure around ``t_s``: rotation plus translation at ~2 m depth."""
+        """Image motion (pixels) during the exposure around ``t_s``."""
         e = self.render_settings.exposure_s
-        if e <= 0:
-            return 0.0
-        R, p = self.model.pose([t_s - e / 2, t_s + e / 2])
+        return self._motion_px(t_s - e / 2, t_s + e / 2) if e > 0 else 0.0
+
+    def _motion_px(self, t0_s: float, t1_s: float) -> float:
+        """Image motion (pixels) from t0 to t1: rotation plus translation seen at ~2 m depth."""
+        R, p = self.model.pose([t0_s, t1_s])
         rel = R[0].T @ R[1]
         angle = float(np.arccos(np.clip((np.trace(rel) - 1.0) / 2.0, -1.0, 1.0)))
         f = self.camera.fx
@@ -136,7 +138,16 @@ class SimulatedSession:
         n_taps = r.blur_taps(self._blur_px(t_s))
         e = self.render_settings.exposure_s
         R, p = self.model.pose([t_s - e / 2, t_s, t_s + e / 2])
-        return r.finish(r.render_blurred(R, p, n_taps), rng)
+        readout = self.render_settings.rolling_shutter_s
+        if readout <= 0:
+            return r.finish(r.render_blurred(R, p, n_taps), rng)
+        # rolling shutter: row bands thin enough that the image moves < rolling_shutter_step_px between them
+        motion_px = self._motion_px(t_s - readout / 2, t_s + readout / 2)
+        n_bands = int(np.clip(np.ceil(motion_px / self.render_settings.rolling_shutter_step_px), 1, self.camera.height_px))
+        edges = r.band_rows(n_bands)
+        centres = 0.5 * (edges[:-1] + edges[1:]) / self.camera.height_px - 0.5
+        band_R, band_p = self.model.pose(t_s + readout * centres)
+        return r.finish(r.render_blurred(R, p, n_taps, band_rotations=band_R, band_positions_m=band_p), rng)
 
     def frames(self) -> Iterator[tuple[float, NDArray[np.uint8], NDArray[np.float64]]]:
         """``(t_s, frame_bgr, truth_angles_deg (3,))`` for every frame, in order."""
@@ -178,6 +189,7 @@ class SimulatedSession:
             "render": {
                 "exposure_s": self.render_settings.exposure_s,
                 "max_blur_taps": self.render_settings.max_blur_taps,
+                "rolling_shutter_s": self.render_settings.rolling_shutter_s,
                 "defocus_sigma_px": self.render_settings.defocus_sigma_px,
                 "read_noise_dn": self.render_settings.read_noise_dn,
                 "shot_noise_gain": self.render_settings.shot_noise_gain,
