@@ -48,7 +48,8 @@ class ImuSettings:
             self.accelerometer_noise_mps2,
             self.accelerometer_bias_mps2,
         )
-        if any(not np.isfinite(v) or v < 0 for v in values) or self.gyroscope_bias_min_dps > self.gyroscope_bias_max_dps:
+        bad_range = self.gyroscope_bias_min_dps > self.gyroscope_bias_max_dps
+        if any(not np.isfinite(v) or v < 0 for v in values) or bad_range:
             msg = f"IMU noise and bias settings must be finite, >= 0 and min <= max: {self}"
             raise ConfigError(msg)
 
@@ -97,5 +98,6 @@ def simulate_imu(model: GaitModel, settings: ImuSettings = DEFAULT_IMU_SETTINGS,
     gyro_bias = np.radians(sign * rng.uniform(settings.gyroscope_bias_min_dps, settings.gyroscope_bias_max_dps, 3))
     accel_bias = rng.normal(0.0, settings.accelerometer_bias_mps2, 3)
     gyro = model.angular_velocity_rps(t) + gyro_bias + rng.normal(0.0, np.radians(settings.gyroscope_noise_dps), (n, 3))
-    accel = ideal_specific_force_mps2(model, t) + accel_bias + rng.normal(0.0, settings.accelerometer_noise_mps2, (n, 3))
+    accel_noise = rng.normal(0.0, settings.accelerometer_noise_mps2, (n, 3))
+    accel = ideal_specific_force_mps2(model, t) + accel_bias + accel_noise
     return ImuSamples(t, gyro, accel, gyro_bias, accel_bias)

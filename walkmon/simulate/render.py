@@ -183,7 +183,9 @@ def _remap_points(img: NDArray[np.uint8], mu: NDArray[np.float32], mv: NDArray[n
     if pad:
         mu = np.concatenate([mu, np.zeros(pad, np.float32)])
         mv = np.concatenate([mv, np.zeros(pad, np.float32)])
-    res = cv2.remap(img, mu.reshape(rows, cols), mv.reshape(rows, cols), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    res = cv2.remap(
+        img, mu.reshape(rows, cols), mv.reshape(rows, cols), cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+    )
     return res.reshape(-1, 3)[:n].astype(np.float32)
 
 

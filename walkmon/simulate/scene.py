@@ -150,7 +150,8 @@ def _cracks(img: NDArray, rng: np.random.Generator, n: int, length_px: float, va
         thick = int(rng.integers(1, 3))
 
         def draw(im, dx, dy, arr=arr, thick=thick):  # noqa: ANN001, ANN202
-            cv2.polylines(im, [np.round(arr + [dx, dy]).astype(np.int32)], False, (value, value, value), thick, cv2.LINE_AA)
+            pts = [np.round(arr + [dx, dy]).astype(np.int32)]
+            cv2.polylines(im, pts, False, (value, value, value), thick, cv2.LINE_AA)
 
         _wrapped(draw, img, (float(arr[0, 0]), float(arr[0, 1])))
 
@@ -290,7 +291,8 @@ def _facade_texture(rng: np.random.Generator, edges_m: NDArray, heights_m: NDArr
             while zpos + win_w < (b - a) * texel - 0.3:
                 x0, x1 = a + int(zpos / texel), a + int((zpos + win_w) / texel)
                 glass = np.array([60, 55, 50], np.float32) * rng.uniform(0.6, 1.6)
-                img[y0:y1, x0:x1] = glass + 25.0 * mid[y0:y1, x0:x1, None] + 20 * np.linspace(1, -1, y1 - y0)[:, None, None]
+                sheen = 20 * np.linspace(1, -1, y1 - y0)[:, None, None]
+                img[y0:y1, x0:x1] = glass + 25.0 * mid[y0:y1, x0:x1, None] + sheen
                 cv2.rectangle(img, (x0, y0), (x1, y1), frame_c.tolist(), 5)
                 cv2.line(img, ((x0 + x1) // 2, y0), ((x0 + x1) // 2, y1), frame_c.tolist(), 3)
                 cv2.rectangle(img, (x0 - 8, y1), (x1 + 8, y1 + 10), (frame_c * 0.8).tolist(), -1)

@@ -143,7 +143,8 @@ class SimulatedSession:
             return r.finish(r.render_blurred(R, p, n_taps), rng)
         # rolling shutter: row bands thin enough that the image moves < rolling_shutter_step_px between them
         motion_px = self._motion_px(t_s - readout / 2, t_s + readout / 2)
-        n_bands = int(np.clip(np.ceil(motion_px / self.render_settings.rolling_shutter_step_px), 1, self.camera.height_px))
+        step_px = self.render_settings.rolling_shutter_step_px
+        n_bands = int(np.clip(np.ceil(motion_px / step_px), 1, self.camera.height_px))
         edges = r.band_rows(n_bands)
         centres = 0.5 * (edges[:-1] + edges[1:]) / self.camera.height_px - 0.5
         band_R, band_p = self.model.pose(t_s + readout * centres)
