@@ -276,7 +276,8 @@ def fuse_video_columns(
                                "time_offset_s": settings.time_offset_s}
     cols, track = fused_columns(imu, ft, visual, ok, settings)
     out: dict[str, object] = {"t": t}
-    out.update({k: cols[k] for k in ("pitch", "yaw", "roll", "pitch_abs", "roll_abs", "visual_used")})
+    out.update({k: cols[k] for k in ("pitch", "yaw", "roll", "pitch_abs", "roll_abs")})
+    out["visual_used"] = [str(int(v)) for v in cols["visual_used"]]  # 0/1, written as integers
     out.update({"pitch_video": visual[:, 0], "yaw_video": visual[:, 1], "roll_video": visual[:, 2]})
     out.update({k: v for k, v in columns.items() if k not in ("t", "pitch", "yaw", "roll")})
     info["visual_increments_used"] = int(track.visual_used.sum())
