@@ -139,11 +139,10 @@ class _MipAtlas:
         width = np.array([lv.shape[1] for lv in tex.levels], f32)
         height = np.array([lv.shape[0] for lv in tex.levels], f32)
         n = len(tex.levels)
-        # the (u + 0.5) * scale - 0.5 texel-centre shift: fold the -0.5 into the offsets
         return cls(
             atlas,
-            np.array(ox, f32) + _PAD - f32(0.5),
-            np.array(oy, f32) + _PAD - f32(0.5),
+            np.array(ox, f32) + _PAD,
+            np.array(oy, f32) + _PAD,
             width,
             height,
             n,
@@ -151,17 +150,21 @@ class _MipAtlas:
         )
 
     def sample(self, u: NDArray[np.float32], v: NDArray[np.float32], level: NDArray[np.float32]) -> NDArray:
-        """Trilinear lookup at level-0 texel coordinates (u right, v down), wrapping; (n, 3) float32."""
+        """Trilinear lookup at level-0 texel coordinates (u right, v down), wrapping; (n, 3) float32.
+
+        Level-0 texel i has its centre at coordinate i. ``cv2.pyrDown`` centres level-l texel j on level-0
+        coordinate ``j * 2^l`` (not ``(j + 0.5) * 2^l - 0.5`` as box averaging would), so the level-l coordinate
+        is simply ``u / 2^l``; any other mapping shifts the texture by up to half a pixel as the level changes
+        with distance, which a tracker would see as motion the geometry does not have.
+        """
         level = np.clip(level, np.float32(0.0), np.float32(self.n_levels - 1.0001))
         l0 = level.astype(np.int32)
         frac = (level - l0)[:, None]
         # wrap once at level 0: the levels halve exactly (power-of-two sizes), so a wrapped level-0 coordinate
         # scaled by 2^-l is wrapped at level l too (np.mod is several times slower than x - floor(x/w)*w)
         w0, h0 = self.width[0], self.height[0]
-        up = u + np.float32(0.5)
-        up -= np.floor(up * (np.float32(1.0) / w0)) * w0
-        vp = v + np.float32(0.5)
-        vp -= np.floor(vp * (np.float32(1.0) / h0)) * h0
+        up = u - np.floor(u * (np.float32(1.0) / w0)) * w0
+        vp = v - np.floor(v * (np.float32(1.0) / h0)) * h0
         acc = None
         for lk in (l0, l0 + 1):
             scale = self.scale[lk]
