@@ -248,3 +248,18 @@ def test_a_window_starting_mid_walk_gets_no_drift_line() -> None:
     full = compute_indicators(t, a)
     assert full.drift_removed_deg["pitch"] == pytest.approx(0.1 * 18.0, abs=0.2)
     assert full.axes["pitch"].inclination_mean == pytest.approx(-15.0, abs=0.1)
+
+
+def test_edge_wiggles_and_partial_cycles_are_not_gait_cycles() -> None:
+    from walkmon.indicators import cycle_extremums  # noqa: PLC0415
+
+    t = np.arange(0, 6, 1 / FS)
+    x = np.where(t < 4.75, np.sin(2 * np.pi * t), -1.0)  # 5 cycles of swing 2, then still
+    x = x + np.where(t > 4.9, 0.05 * np.sin(2 * np.pi * (t - 4.9) / 0.6) ** 2, 0.0)  # the trunk settling
+    imax, imin = cycle_extremums(x, min_distance=int(0.6 * FS))
+    assert imax.size == 5
+    assert np.allclose(x[imax] - x[imin], 2.0, atol=0.02)
+    # the span ends 0.15 cycles after the last maximum: that partial cycle is dropped, not read as a small swing
+    imax, imin = cycle_extremums(x, min_distance=int(0.6 * FS), hi=int(4.4 * FS))
+    assert imax.size == 4
+    assert np.allclose(x[imax] - x[imin], 2.0, atol=0.02)

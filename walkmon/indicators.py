@@ -377,13 +377,19 @@ def _lowpass(x: NDArray[np.float64], cutoff_hz: float, fs: float) -> NDArray[np.
 
 
 def cycle_extremums(
-    x: NDArray[np.float64], min_distance: int, lo: int = 0, hi: int | None = None
+    x: NDArray[np.float64],
+    min_distance: int,
+    lo: int = 0,
+    hi: int | None = None,
+    *,
+    min_swing_fraction: float = 0.25,
 ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """One (maximum, minimum) index pair per cycle of ``x`` within ``[lo, hi)``.
 
     Maxima are local maxima at least ``min_distance`` samples apart (the larger wins); each maximum is paired
     with the lowest sample between it and the next maximum (or the end of the span), when that stretch holds a
-    local minimum. Returns ``(maxima_idx, minima_idx)`` of equal length.
+    local minimum. Pairs whose swing is below ``min_swing_fraction`` of the median swing are dropped (edge
+    wiggles). Returns ``(maxima_idx, minima_idx)`` of equal length.
     """
     hi = x.size if hi is None else hi
     from scipy import signal  # noqa: PLC0415 - scipy.signal takes ~1 s to import; keep `import walkmon` light
@@ -398,11 +404,17 @@ def cycle_extremums(
         if stop - p < 3:
             continue
         q = p + int(np.argmin(seg[p:stop]))
-        if q in (p, stop - 1) and stop == seg.size:
-            continue  # the walk ended before this cycle's minimum
+        if stop == seg.size and (stop - p < min_distance or q == stop - 1):
+            continue  # the span ends before this cycle's minimum: a partial cycle would read a small swing
         maxima.append(lo + p)
         minima.append(lo + q)
-    return np.asarray(maxima, np.intp), np.asarray(minima, np.intp)
+    imax, imin = np.asarray(maxima, np.intp), np.asarray(minima, np.intp)
+    if imax.size >= 3:
+        # a wiggle at the span's edge (the trunk settling) passes the distance test but is no gait cycle
+        swing = x[imax] - x[imin]
+        keep = swing >= min_swing_fraction * float(np.median(swing))
+        imax, imin = imax[keep], imin[keep]
+    return imax, imin
 
 
 def paper_extremums(x: NDArray[np.float64], min_distance: int, keep: NDArray[np.bool_]) -> tuple[NDArray, NDArray]:
