@@ -134,3 +134,19 @@ def test_cli_calibrate_folder_without_board_exit_2(tmp_path, capsys) -> None:
         cv2.imwrite(str(tmp_path / f"{i}.png"), np.full((120, 160), 128, np.uint8))
     assert main(["calibrate", str(tmp_path), "--out", str(tmp_path / "c.yaml")]) == 2
     assert "chessboard was found in 0 of 5 images" in capsys.readouterr().err
+
+
+def test_chessboard_corners_land_on_the_true_corners() -> None:
+    """Detected, sub-pixel refined corners sit where the simulator's projection puts the true corners."""
+    from walkmon.chessboard import find_chessboard
+    from walkmon.simulate.calibration_views import render_chessboard_views
+
+    cam = default_camera(320, 240)
+    errors = []
+    for view in render_chessboard_views(cam, (9, 6), n_views=4, seed=3, supersample=2):
+        corners = find_chessboard(view.image, (9, 6))
+        assert corners is not None
+        errors.append(np.linalg.norm(corners.reshape(-1, 2) - view.corners_px.reshape(-1, 2), axis=1))
+    err = np.concatenate(errors)
+    assert np.median(err) < 0.15
+    assert err.max() < 0.6
