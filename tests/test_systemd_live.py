@@ -138,3 +138,47 @@ def test_pipeline_sends_ready_after_first_frame_and_watchdog_from_its_loop(tmp_p
     ready = [i for i, m in enumerate(msgs) if m.startswith("READY=1")]
     assert len(ready) == 1 and msgs.count("WATCHDOG=1") >= 5
     assert msgs[-1] == "STOPPING=1"
+
+
+def test_a_hung_camera_stops_the_watchdog_pings(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """The grabber stuck inside a driver call: the loop keeps running but stops WATCHDOG=1 (systemd restarts)."""
+    from test_live_pipeline import GaitSource, TruthEstimator  # noqa: PLC0415
+
+    from walkmon.config import PipelineSettings  # noqa: PLC0415
+    from walkmon.drivers.camera_base import Frame  # noqa: PLC0415
+    from walkmon.simulate.gait import GaitModel  # noqa: PLC0415
+
+    release = threading.Event()
+    stalled = threading.Event()
+
+    class HangingSource(GaitSource):
+        def _read(self) -> Frame:
+            if self._i == 15:
+                stalled.set()
+                release.wait(20)  # a driver call that does not return
+                raise SourceDisconnected("test: gone")
+            return super()._read()
+
+    from walkmon.errors import SourceDisconnected  # noqa: PLC0415
+
+    sock_path = str(tmp_path / "n.sock")
+    listener = _Listener(sock_path)
+    model = GaitModel("normal:2", seed=1)
+    p = LivePipeline(HangingSource(model, realtime=True), lambda _s: TruthEstimator(model),
+                     indicators=LiveIndicatorStage(), alerts=AlertStage(), session_log=SessionLog(tmp_path),
+                     settings=PipelineSettings(frame_timeout_s=0.2),
+                     notifier=Notifier({"NOTIFY_SOCKET": sock_path, "WATCHDOG_USEC": "20000"}))
+
+    def supervisor() -> None:
+        stalled.wait(20)
+        while not any("watchdog pings stopped" in r.message for r in caplog.records):
+            if p._stop.wait(0.05):  # noqa: SLF001
+                return
+        release.set()
+
+    threading.Thread(target=supervisor, daemon=True).start()
+    res = p.run()
+    msgs = listener.messages()
+    assert res.frames == 15 and res.end_reason.startswith("end of stream")
+    k = msgs.index("STATUS=stalled: no frame for 0.2 s")
+    assert "WATCHDOG=1" in msgs[:k] and "WATCHDOG=1" not in msgs[k:]

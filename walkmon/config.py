@@ -81,7 +81,7 @@ class PipelineSettings:
     reconnect_max_s: float = 10.0
     #: Give up after this long without frames from a reconnecting source (0: never), s.
     reconnect_give_up_s: float = 0.0
-    #: A source that delivers nothing for this long is treated as disconnected, s.
+    #: A camera that delivers nothing for this long (not reconnecting) stops the systemd watchdog pings, s.
     frame_timeout_s: float = 5.0
 
     def __post_init__(self) -> None:

@@ -216,6 +216,8 @@ class LivePipeline:
         self._thread_errors: list[BaseException] = []
         self._end_reason = ""
         self._reconnects = 0
+        self._reconnecting = False
+        self._stalled = False
         self._imu_buffer: collections.deque[Any] = collections.deque()
         self._imu_lock = threading.Lock()
         self._imu_max = 20000
@@ -267,6 +269,13 @@ class LivePipeline:
             self.queue.close()
 
     def _reconnect(self) -> bool:
+        self._reconnecting = True
+        try:
+            return self._reconnect_loop()
+        finally:
+            self._reconnecting = False
+
+    def _reconnect_loop(self) -> bool:
         src, s = self.camera, self.settings
         backoff = s.reconnect_initial_s
         since = time.monotonic()
@@ -317,6 +326,25 @@ class LivePipeline:
             self._thread_errors.append(exc)
             self._stop.set()
 
+    def _watchdog(self, last_frame_mono: float | None) -> None:
+        """Ping the systemd watchdog while frames flow (or the camera is being reconnected).
+
+        A grabber stuck inside a driver call for more than ``frame_timeout_s`` stops the pings, so systemd
+        (WatchdogSec) restarts a service whose camera hung; the loop itself hanging stops them too.
+        """
+        stalled = (last_frame_mono is not None and not self._reconnecting and not self.queue.closed
+                   and time.monotonic() - last_frame_mono > self.settings.frame_timeout_s)
+        if stalled != self._stalled:
+            self._stalled = stalled
+            if stalled:
+                _log.error("no frame from %s for %.0f s: camera hung? watchdog pings stopped",
+                           self.camera.url, self.settings.frame_timeout_s)
+                self.notifier.status(f"stalled: no frame for {self.settings.frame_timeout_s:g} s")
+            else:
+                _log.warning("frames flow again from %s", self.camera.url)
+        if not stalled:
+            self.notifier.watchdog()
+
     def _drain_imu(self) -> None:
         with self._imu_lock:
             samples = list(self._imu_buffer)
@@ -352,8 +380,9 @@ class LivePipeline:
             self.notifier.status(f"waiting for frames from {self.camera.url}")
             fps_window: collections.deque[float] = collections.deque(maxlen=61)
             last_angles = (math.nan, math.nan, math.nan)
+            last_frame_mono: float | None = None  # before the first frame: TimeoutStartSec's business
             while not self._stop.is_set():
-                self.notifier.watchdog()
+                self._watchdog(last_frame_mono)
                 self.log.maybe_flush()
                 if duration_s is not None and time.monotonic() - wall0 >= duration_s:
                     self._end_reason = self._end_reason or f"duration {duration_s:g} s reached"
@@ -381,6 +410,7 @@ class LivePipeline:
                     first_t = frame.t_s
                     self.notifier.ready(f"monitoring {self.camera.url}")
                 last_t = frame.t_s
+                last_frame_mono = done
                 fps_window.append(frame.t_s)
                 self.log.n_dropped = self.queue.dropped
                 self.log.add_frame(frame.t_s, angles, int(getattr(estimate, "n_inliers", -1) or -1),
