@@ -30,8 +30,11 @@ from walkmon.imu_attitude import (
     DEFAULT_ATTITUDE_SETTINGS,
     AttitudeSettings,
     ImuAttitudeFilter,
+    VisualWindows,
+    exp_so3,
     initial_state_from_rest,
     log_so3,
+    smooth_attitude,
 )
 
 __all__ = [
@@ -53,20 +56,35 @@ _GATE_3DOF = 16.27
 class FusionSettings:
     """Settings of :class:`CameraImuFusion`.
 
-    ``attitude``: the IMU filter's noise model. ``visual_std_deg``: std of one frame-to-frame visual rotation,
-    per axis (the fast estimator on simulated walks: ~0.01 deg). ``visual_gate``: chi-square threshold (3 dof)
-    beyond which a visual increment is down-weighted; ``visual_outlier_deg``: a frame-to-frame disagreement with
-    the gyroscope larger than this rejects the increment.
+    ``attitude``: the IMU filter's noise model. ``visual_std_deg``: std of one frame-to-frame visual rotation
+    about the camera's x and y axes, ``visual_roll_std_factor`` times that about the optical axis (the fast
+    estimator on simulated walks: 0.007-0.011 deg per frame, roll the worst, but with errors that do not average
+    out: 0.3-0.8 % scale error and 0.005-0.015 deg/s drift against truth, so the increments are weighted as
+    0.05 deg, and the filter also estimates the visual drift rate and scale per axis, priors
+    ``visual_drift_std_deg_s`` and ``visual_scale_std``). ``visual_baseline_s``: 0 = every good frame is a
+    measurement; > 0 = the rotation between good frames at least that far apart (std
+    ``visual_window_std_deg``). ``visual_gate``: chi-square threshold (3 dof) beyond which a visual increment
+    is down-weighted; ``visual_outlier_deg``: a disagreement with the gyroscope larger than this rejects it.
+    ``offline_smoother`` (offline :func:`fuse_recording` only; default off, see benchmarks/results/fusion.md):
+    forward filter + Rauch-Tung-Striebel backward pass, the vision entering as gyroscope-bias measurements over
+    windows of ``smoother_window_s`` with std ``visual_window_std_deg``.
     ``camera_from_imu``: rotation taking IMU axes to camera axes (row-major 3x3; identity when the IMU is the
     camera's, as in the simulator). ``time_offset_s``: added to IMU timestamps to put them on the video clock.
     """
 
     attitude: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS
-    visual_std_deg: float = 0.02
+    visual_std_deg: float = 0.05
     visual_gate: float = _GATE_3DOF
     visual_outlier_deg: float = 1.0
     camera_from_imu: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
     time_offset_s: float = 0.0
+    offline_smoother: bool = False
+    visual_baseline_s: float = 0.0
+    visual_window_std_deg: float = 0.04
+    visual_drift_std_deg_s: float = 0.02
+    visual_scale_std: float = 0.01
+    visual_roll_std_factor: float = 2.0
+    smoother_window_s: float = 1.0
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.visual_std_deg) and self.visual_std_deg > 0):
@@ -79,6 +97,15 @@ class FusionSettings:
         if R.shape != (9,) or not np.allclose(R.reshape(3, 3) @ R.reshape(3, 3).T, np.eye(3), atol=1e-4):
             msg = f"camera_from_imu must be 9 numbers of a rotation matrix, got {self.camera_from_imu}"
             raise ConfigError(msg)
+        if not (np.isfinite(self.visual_baseline_s) and self.visual_baseline_s >= 0):
+            msg = f"visual_baseline_s must be >= 0 (0 = every frame), got {self.visual_baseline_s}"
+            raise ConfigError(msg)
+        for name in ("visual_window_std_deg", "visual_drift_std_deg_s", "visual_scale_std", "visual_roll_std_factor",
+                     "smoother_window_s"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                msg = f"{name} must be positive, got {value}"
+                raise ConfigError(msg)
         if not np.isfinite(self.time_offset_s):
             msg = f"time_offset_s must be finite, got {self.time_offset_s}"
             raise ConfigError(msg)
@@ -119,7 +146,7 @@ class CameraImuFusion:
 
     def __init__(self, settings: FusionSettings = DEFAULT_FUSION_SETTINGS) -> None:
         self.settings = settings
-        self._filter = ImuAttitudeFilter(settings.attitude, n_clones=1)
+        self._filter = ImuAttitudeFilter(settings.attitude, n_clones=1, n_extra=6)
         self._R_ci = settings.camera_from_imu_matrix
         self.reset()
 
@@ -140,8 +167,17 @@ class CameraImuFusion:
             initial_bias_std_rad_s=initial_bias_std_rad_s,
             initial_tilt_std_deg=initial_tilt_std_deg,
         )
+        # the visual estimator's own drift rate (rad/s, 9:12) and scale error (12:15), per camera axis
+        s = self.settings
+        P = self._filter.kf.P
+        P[9:12, 9:12] = np.eye(3) * np.radians(s.visual_drift_std_deg_s) ** 2
+        P[12:15, 12:15] = np.eye(3) * s.visual_scale_std**2
+        self._filter.extra_walk_per_sqrt_s = np.r_[
+            np.full(3, np.radians(s.visual_drift_std_deg_s) / 30.0), np.full(3, s.visual_scale_std / 30.0)
+        ]
         self._has_reference = False
         self._last_visual: NDArray[np.float64] | None = None
+        self._anchor_t_s = -np.inf
         self.frames_used = 0
         self.frames_rejected = 0
 
@@ -167,7 +203,8 @@ class CameraImuFusion:
         if np.degrees(np.linalg.norm(residual)) > s.visual_outlier_deg:
             return False
         f = self._filter
-        R = np.eye(3) * np.radians(s.visual_std_deg) ** 2
+        std = s.visual_window_std_deg if s.visual_baseline_s > 0 else s.visual_std_deg
+        R = np.diag([1.0, 1.0, s.visual_roll_std_factor**2]) * np.radians(std) ** 2
         S = H @ f.kf.P @ H.T + R
         d2 = float(residual @ np.linalg.solve(S, residual))
         if d2 > s.visual_gate:
@@ -189,17 +226,27 @@ class CameraImuFusion:
             self._has_reference = True
         if visual_rotation is not None and ok:
             Rv = np.asarray(visual_rotation, dtype=float)
-            if self._last_visual is not None:
+            if self._last_visual is not None and t_s - self._anchor_t_s < self.settings.visual_baseline_s - 1e-9:
+                pass  # inside the window: the clone stays at the anchor frame
+            elif self._last_visual is not None:
                 dR_vis = self._last_visual.T @ Rv
                 dR_pred = f.clones[0].T @ f.rotation_world
-                residual = log_so3(dR_pred.T @ dR_vis)
+                window_s = t_s - self._anchor_t_s
+                phi = log_so3(dR_vis)
+                vis_err = window_s * f.extra[0:3] + phi * f.extra[3:6]
+                residual = log_so3((dR_pred @ exp_so3(vis_err)).T @ dR_vis)
                 H = np.zeros((3, f.kf.dim_x))
                 H[:, 0:3] = np.eye(3)
                 H[:, 6:9] = -dR_pred.T
+                H[:, 9:12] = np.eye(3) * window_s
+                H[:, 12:15] = np.diag(phi)
                 used = self._visual_update(residual, H)
                 rejected = not used
-            f.clone_current(0)
-            self._last_visual = Rv
+                f.clone_current(0)
+                self._last_visual, self._anchor_t_s = Rv, t_s
+            else:
+                f.clone_current(0)
+                self._last_visual, self._anchor_t_s = Rv, t_s
         elif visual_rotation is not None:
             rejected = True
             self._last_visual = None  # the chain is broken: the next good frame only re-anchors
@@ -276,6 +323,8 @@ def fuse_recording(
         raise InvalidInputError(msg)
     rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
     settings = replace(settings, attitude=replace(settings.attitude, rate_hz_nominal=float(rate)))
+    if settings.offline_smoother:
+        return _smoothed_recording(t, g, a, ft, Rv, ok, settings)
     fusion = CameraImuFusion(settings)
     a0, b0, b0_std, tilt_std = initial_state_from_rest(t, g, a)
     t_video = t + settings.time_offset_s
@@ -322,5 +371,58 @@ def fuse_recording(
         visual_used=np.array([e.visual_used for e in estimates]),
         gyroscope_bias_rad_s=np.array([e.gyroscope_bias_rad_s for e in estimates]),
         frames_rejected=fusion.frames_rejected,
+        method="imu" if Rv is None else "fused",
+    )
+
+
+def _smoothed_recording(
+    t: NDArray[np.float64],
+    g: NDArray[np.float64],
+    a: NDArray[np.float64],
+    ft: NDArray[np.float64],
+    Rv: NDArray[np.float64] | None,
+    ok: NDArray[np.bool_],
+    settings: FusionSettings,
+) -> FusionTrack:
+    """:func:`fuse_recording` with the offline smoother (``settings.offline_smoother``): IMU samples rotated
+    into the camera frame and put on the video clock, :func:`walkmon.imu_attitude.smooth_attitude`, results
+    sampled at the frame times. A recording that does not start still gets a second pass as the causal path
+    does (bias from the first pass's smoothed start, gravity from the whole recording's mean specific force)."""
+    R_ci = settings.camera_from_imu_matrix
+    gc, ac = g @ R_ci.T, a @ R_ci.T
+    tv = t + settings.time_offset_s
+    visual = None
+    if Rv is not None:
+        visual = VisualWindows(
+            t_s=ft, rotations=Rv, ok=ok, baseline_s=settings.smoother_window_s,
+            std_deg=settings.visual_window_std_deg, outlier_deg=settings.visual_outlier_deg, gate=settings.visual_gate,
+        )
+    a0, b0, b0_std, tilt_std = initial_state_from_rest(tv, gc, ac)
+    sm = smooth_attitude(
+        tv, gc, ac, settings.attitude, initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0,
+        initial_bias_std_rad_s=b0_std, initial_tilt_std_deg=tilt_std, visual=visual,
+    )
+    if b0 is None:
+        R_frames, _ = sm.at(ft)
+        rel = np.einsum("ji,njk->nik", R_frames[0], R_frames)
+        idx = np.clip(np.searchsorted(tv, ft), 0, len(tv) - 1)
+        a0_second = np.einsum("nij,nj->i", rel, ac[idx]) / len(ft)
+        sm = smooth_attitude(
+            tv, gc, ac, settings.attitude, initial_accelerometer_m_s2=a0_second, initial_bias_rad_s=sm.bias_rad_s[0],
+            initial_bias_std_rad_s=max(sm.bias_std_rad_s, 1e-4), initial_tilt_std_deg=0.5, visual=visual,
+        )
+        _log.info("no still start: second smoothed pass from the first pass's bias")
+    R_frames, b_frames = sm.at(np.maximum(ft, tv[0]))
+    rel = np.einsum("ji,njk->nik", R_frames[0], R_frames)
+    down = np.einsum("nji,j->ni", R_frames, sm.down_world)
+    used = sm.visual_used if Rv is not None else np.zeros(len(ft), bool)
+    return FusionTrack(
+        t_s=ft.copy(),
+        angles_deg=angles_deg_from_rotation(rel),
+        abs_angles_deg=gravity_angles_deg_from_gravity(down),
+        gravity_down=down,
+        visual_used=used.copy(),
+        gyroscope_bias_rad_s=b_frames @ R_ci,
+        frames_rejected=int(sm.visual_rejected.sum()) if Rv is not None else 0,
         method="imu" if Rv is None else "fused",
     )

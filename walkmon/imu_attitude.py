@@ -33,22 +33,29 @@ from walkmon.errors import ConfigError, InvalidInputError
 
 __all__ = [
     "DEFAULT_ATTITUDE_SETTINGS",
+    "GYROSCOPE_RULES",
     "HANDHELD_ATTITUDE_SETTINGS",
     "AttitudeEstimate",
     "AttitudeSettings",
     "AttitudeStatus",
     "AttitudeTrack",
     "ImuAttitudeFilter",
+    "SmoothedAttitude",
+    "VisualWindows",
     "estimate_attitude",
     "exp_so3",
     "initial_state_from_rest",
     "log_so3",
+    "smooth_attitude",
 ]
 
 _log = logging.getLogger(__name__)
 
 #: Chi-square 99.9 % quantile with 3 degrees of freedom: measurements further out are rejected as outliers.
 _GATE_3DOF = 16.27
+
+#: Meanings of a gyroscope sample (:attr:`AttitudeSettings.gyroscope_rule`).
+GYROSCOPE_RULES = ("trapezoid", "backward")
 
 
 # ------------------------------------------------------------------------------------------------- SO(3)
@@ -98,6 +105,11 @@ class AttitudeSettings:
     many seconds in the world frame, at ``gravity_update_hz`` with std ``gravity_std_lowpass`` (VQF's idea; see
     :data:`HANDHELD_ATTITUDE_SETTINGS`); 0 (default, best for walking) = per-sample updates as above.
     ``rate_hz_nominal``: the IMU rate (set from the data by the offline functions).
+    ``gyroscope_rule``: what a gyroscope sample means, a property of the sensor: ``"trapezoid"`` (default) for
+    instantaneous rates at the sample time (the simulator's), integrated with the trapezoidal rule;
+    ``"backward"`` for the mean rate over the interval ending at the sample (what filtered MEMS outputs behave
+    like, and what VQF and imufusion assume: on BROAD's real IMU it cuts the inclination error of fast
+    rotations from 1.9 to 1.2 deg, benchmarks/results/fusion.md).
     """
 
     gyroscope_noise_rad_s_sqrt_hz: float = 3e-4
@@ -118,10 +130,16 @@ class AttitudeSettings:
     rest_rate_deg_s: float = 0.2
     rest_rate_std_rad_s: float = 0.005
     rate_hz_nominal: float = 200.0
+    gyroscope_rule: str = "trapezoid"
 
     def __post_init__(self) -> None:
         for name in self.__slots__:  # type: ignore[attr-defined]
             value = getattr(self, name)
+            if name == "gyroscope_rule":
+                if value not in GYROSCOPE_RULES:
+                    msg = f"gyroscope_rule must be one of {', '.join(GYROSCOPE_RULES)}, got {value!r}"
+                    raise ConfigError(msg)
+                continue
             if name == "gravity_lowpass_s" and value == 0:
                 continue  # 0 = per-sample gravity updates
             if not (np.isfinite(value) and value > 0):
@@ -131,10 +149,20 @@ class AttitudeSettings:
 
 DEFAULT_ATTITUDE_SETTINGS = AttitudeSettings()
 
-#: For hand-held or slow general motion (no sustained accelerations): gravity from the accelerometer low-passed
-#: over 3 s in the world frame. Better than the walking defaults on the BROAD trials, worse on walks, where the
-#: start of walking and speed changes are sustained forward accelerations (benchmarks/results/fusion.md).
-HANDHELD_ATTITUDE_SETTINGS = AttitudeSettings(gravity_lowpass_s=3.0)
+#: For hand-held or general motion (no sustained accelerations) with a real MEMS IMU: gravity from the
+#: accelerometer low-passed over 2 s in the gyro-integrated frame (VQF's idea), a firmer gravity reference
+#: (0.02), a faster-wandering bias (2e-4 rad/s/sqrt(s)), 1 % gyro scale error, and gyro samples taken as
+#: interval means (``gyroscope_rule="backward"``). Tuned on the two BROAD trials, where it beats vqf (online)
+#: and imufusion (benchmarks/results/fusion.md; tuned and measured on the same two trials, so the margin is
+#: optimistic). Worse on walks, where the start of walking and speed changes are sustained forward
+#: accelerations that a 2 s low-pass takes for gravity.
+HANDHELD_ATTITUDE_SETTINGS = AttitudeSettings(
+    gravity_lowpass_s=2.0,
+    gravity_std_lowpass=0.02,
+    gyroscope_bias_walk_rad_s_sqrt_s=2e-4,
+    gyroscope_scale_error=0.01,
+    gyroscope_rule="backward",
+)
 
 
 class AttitudeStatus(enum.Enum):
@@ -211,12 +239,16 @@ class ImuAttitudeFilter:
 
     ``push(t_s, gyroscope_rad_s, accelerometer_m_s2) -> AttitudeEstimate``; ``reset()`` forgets everything.
     ``n_clones`` extra 3-D error blocks (orientation clones) are carried for relative measurements
-    (:mod:`walkmon.fusion` uses one).
+    (:mod:`walkmon.fusion` uses one); ``n_extra`` additive, constant states after them (``self.extra``, prior
+    variance set by the caller in ``kf.P``; the fusion models the visual estimator's drift rate and scale there).
     """
 
-    def __init__(self, settings: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS, *, n_clones: int = 0) -> None:
+    def __init__(
+        self, settings: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS, *, n_clones: int = 0, n_extra: int = 0
+    ) -> None:
         self.settings = settings
         self.n_clones = n_clones
+        self.n_extra = n_extra
         self._rest = _RestDetector(settings)
         self.reset()
 
@@ -234,7 +266,7 @@ class ImuAttitudeFilter:
         from filterpy.kalman import KalmanFilter  # noqa: PLC0415 - filterpy's import takes ~2 s (scipy.stats)
 
         s = self.settings
-        dim = 6 + 3 * self.n_clones
+        dim = 6 + 3 * self.n_clones + self.n_extra
         self.kf = KalmanFilter(dim_x=dim, dim_z=3)
         self.kf.x = np.zeros((dim, 1))
         P = np.zeros((dim, dim))
@@ -246,6 +278,9 @@ class ImuAttitudeFilter:
         self.kf.P = P
         self.rotation_world = np.eye(3)
         self.clones = [np.eye(3) for _ in range(self.n_clones)]
+        self.extra = np.zeros(self.n_extra)
+        #: random-walk std per sqrt(s) of each extra state (0 = constant)
+        self.extra_walk_per_sqrt_s = np.zeros(self.n_extra)
         self.bias = np.zeros(3) if initial_bias_rad_s is None else np.asarray(initial_bias_rad_s, float).copy()
         self.down_world: NDArray[np.float64] | None = None
         self._tilt_std_deg = s.initial_tilt_std_deg if initial_tilt_std_deg is None else initial_tilt_std_deg
@@ -259,6 +294,7 @@ class ImuAttitudeFilter:
         self.at_rest = False
         self._accel_envelope = 0.0
         self._accel_world_lp: NDArray[np.float64] | None = None
+        self._rotation_gyro = np.eye(3)  # bias-corrected gyro integration, never corrected by gravity
         self._since_gravity_s = 0.0
 
     def _set_down(self, down: NDArray[np.float64]) -> None:
@@ -276,6 +312,7 @@ class ImuAttitudeFilter:
         w = gyroscope_rad_s - self.bias
         dR = exp_so3(w * dt)
         self.rotation_world = self.rotation_world @ dR
+        self._rotation_gyro = self._rotation_gyro @ dR
         dim = self.kf.dim_x
         F = np.eye(dim)
         F[0:3, 0:3] = dR.T
@@ -284,6 +321,9 @@ class ImuAttitudeFilter:
         rate2 = float(w @ w)
         Q[0:3, 0:3] = np.eye(3) * (s.gyroscope_noise_rad_s_sqrt_hz**2 * dt + s.gyroscope_scale_error**2 * rate2 * dt * dt)
         Q[3:6, 3:6] = np.eye(3) * (s.gyroscope_bias_walk_rad_s_sqrt_s**2 * dt)
+        if self.n_extra:
+            k = 6 + 3 * self.n_clones
+            Q[k:, k:] = np.diag(self.extra_walk_per_sqrt_s**2 * dt)
         P = self.kf.P
         self.kf.P = F @ P @ F.T + Q
 
@@ -305,6 +345,8 @@ class ImuAttitudeFilter:
         self.bias = self.bias + dx[3:6]
         for i in range(self.n_clones):
             self.clones[i] = self.clones[i] @ exp_so3(dx[6 + 3 * i : 9 + 3 * i])
+        if self.n_extra:
+            self.extra = self.extra + dx[6 + 3 * self.n_clones :]
         return True
 
     def clone_current(self, index: int = 0) -> None:
@@ -338,7 +380,12 @@ class ImuAttitudeFilter:
                 msg = f"IMU time went backwards: {t_s} after {self.t_s}"
                 raise InvalidInputError(msg)
             # trapezoidal rule between samples; a frame time between samples extrapolates the last rate
-            rate = self._last_gyro if gyro is None else 0.5 * (self._last_gyro + gyro)
+            if gyro is None:
+                rate = self._last_gyro
+            elif self.settings.gyroscope_rule == "backward":
+                rate = gyro
+            else:
+                rate = 0.5 * (self._last_gyro + gyro)
             self.propagate(rate, dt)
             self.t_s = t_s
         if gyro is not None:
@@ -381,7 +428,9 @@ class ImuAttitudeFilter:
         in the world, stays. Updates at ``gravity_update_hz``; residual in the world frame."""
         s = self.settings
         assert self.down_world is not None
-        a_world = self.rotation_world @ accel
+        # low-pass in the gyro-integrated (almost inertial) frame, which gravity corrections never rotate, so
+        # the filter's own corrections do not leak into the low-pass state (VQF's design)
+        a_world = self._rotation_gyro @ accel
         if self._accel_world_lp is None:
             self._accel_world_lp = a_world.copy()
         else:
@@ -394,10 +443,11 @@ class ImuAttitudeFilter:
         norm = float(np.linalg.norm(lp))
         if norm < 1e-6 or abs(norm - GRAVITY_MS2) > s.acceleration_rejection_m_s2:
             return AttitudeStatus.GYRO_ONLY
-        u = lp / norm
+        measured_down = -(self._rotation_gyro.T @ lp) / norm  # gravity's direction in the sensor frame now
+        h0 = self.rotation_world.T @ self.down_world
         H = np.zeros((3, self.kf.dim_x))
-        H[:, 0:3] = self.rotation_world @ skew(self.rotation_world.T @ u)
-        self.update(u + self.down_world, H, np.eye(3) * s.gravity_std_lowpass**2)
+        H[:, 0:3] = skew(h0)
+        self.update(measured_down - h0, H, np.eye(3) * s.gravity_std_lowpass**2)
         return AttitudeStatus.GRAVITY
 
     def set_reference(self) -> None:
@@ -472,12 +522,25 @@ def estimate_attitude(
     gyroscope_rad_s: ArrayLike,
     accelerometer_m_s2: ArrayLike,
     settings: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS,
+    *,
+    smooth: bool = False,
 ) -> AttitudeTrack:
     """Run :class:`ImuAttitudeFilter` over a recording (initialised from its first second), angles relative
-    to the first sample."""
+    to the first sample; ``smooth``: offline forward filter + RTS backward pass (:func:`smooth_attitude`)."""
     t, g, a = _check_imu_arrays(t_s, gyroscope_rad_s, accelerometer_m_s2)
     a0, b0, b0_std, tilt_std = initial_state_from_rest(t, g, a)
     rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
+    if smooth:
+        sm = smooth_attitude(
+            t, g, a, _with_rate(settings, rate), initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0,
+            initial_bias_std_rad_s=b0_std, initial_tilt_std_deg=tilt_std,
+        )
+        R = np.einsum("ji,njk->nik", sm.rotations_world[0], sm.rotations_world)
+        down = np.einsum("nji,j->ni", sm.rotations_world, sm.down_world)
+        return AttitudeTrack(
+            t_s=t.copy(), angles_deg=angles_deg_from_rotation(R), rotations=R, gravity_down=down,
+            abs_angles_deg=gravity_angles_deg_from_gravity(down), gyroscope_bias_rad_s=sm.bias_rad_s.copy(),
+        )
     filt = ImuAttitudeFilter(_with_rate(settings, rate))
     filt.reset(
         initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0, initial_bias_std_rad_s=b0_std, initial_tilt_std_deg=tilt_std
@@ -502,4 +565,184 @@ def _track(estimates: list[AttitudeEstimate]) -> AttitudeTrack:
         gravity_down=np.array([e.gravity_down for e in estimates]),
         abs_angles_deg=np.array([e.abs_angles_deg for e in estimates]),
         gyroscope_bias_rad_s=np.array([e.gyroscope_bias_rad_s for e in estimates]),
+    )
+
+
+# ------------------------------------------------------------------------------- offline RTS smoothing
+@dataclass(frozen=True, slots=True)
+class VisualWindows:
+    """Visual rotations for :func:`smooth_attitude`, on the IMU's clock and in the IMU filter's axes.
+
+    ``t_s`` (M,) frame times, ``rotations`` (M,3,3) the estimator's start-relative orientations, ``ok`` (M,)
+    frames it measured. The rotation *between* two good frames ``baseline_s`` or more apart measures the
+    gyroscope bias over that window (``std_deg`` per axis for the visual part; the gyroscope's own noise over
+    the window is added). A window whose disagreement with the gyroscope exceeds ``outlier_deg`` is rejected;
+    beyond the chi-square ``gate`` the noise is inflated (Huber-like).
+    """
+
+    t_s: NDArray[np.float64]
+    rotations: NDArray[np.float64]
+    ok: NDArray[np.bool_]
+    baseline_s: float = 1.0
+    std_deg: float = 0.04
+    outlier_deg: float = 1.0
+    gate: float = _GATE_3DOF
+
+
+@dataclass(frozen=True, slots=True)
+class SmoothedAttitude:
+    """Result of :func:`smooth_attitude`: per IMU sample the smoothed orientation (sensor -> world, (N,3,3)) and
+    gyroscope bias (N,3); ``down_world`` gravity's direction in the world frame; per visual frame whether its
+    window corrected the filter (``visual_used``) or was refused (``visual_rejected``); ``bias_std_rad_s`` the
+    final filtered bias uncertainty (largest axis)."""
+
+    t_s: NDArray[np.float64]
+    rotations_world: NDArray[np.float64]
+    bias_rad_s: NDArray[np.float64]
+    interval_rates_rad_s: NDArray[np.float64]
+    down_world: NDArray[np.float64]
+    visual_used: NDArray[np.bool_]
+    visual_rejected: NDArray[np.bool_]
+    bias_std_rad_s: float
+
+    def at(self, times_s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Orientations (M,3,3) and biases (M,3) at ``times_s``: from the last sample at or before each time,
+        propagated with the rate of that sample interval (times before the first sample get it)."""
+        tq = np.asarray(times_s, dtype=float).reshape(-1)
+        t = self.t_s
+        idx = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, len(t) - 1)
+        out = np.empty((len(tq), 3, 3))
+        for m, (i, tm) in enumerate(zip(idx, tq, strict=True)):
+            tau = max(0.0, float(tm - t[i]))
+            rate = self.interval_rates_rad_s[i]
+            out[m] = self.rotations_world[i] @ exp_so3((rate - self.bias_rad_s[i]) * tau)
+        return out, self.bias_rad_s[idx]
+
+
+def smooth_attitude(
+    t_s: NDArray[np.float64],
+    gyroscope_rad_s: NDArray[np.float64],
+    accelerometer_m_s2: NDArray[np.float64],
+    settings: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS,
+    *,
+    initial_accelerometer_m_s2: ArrayLike | None = None,
+    initial_bias_rad_s: ArrayLike | None = None,
+    initial_bias_std_rad_s: float | None = None,
+    initial_tilt_std_deg: float | None = None,
+    visual: VisualWindows | None = None,
+) -> SmoothedAttitude:
+    """Offline attitude: the forward :class:`ImuAttitudeFilter` (gravity, rest and, with ``visual``, visual
+    bias windows) followed by a Rauch-Tung-Striebel backward pass on the error state.
+
+    The forward filter alone only knows the past; the backward pass carries what is learnt later (the bias
+    from a still period at the end or from visual windows, gravity seen later) back to every earlier sample,
+    weighted by the filter's own covariances, so the smoothed estimate is never less informed than the
+    forward one. Visual windows measure the bias only (``r = log(D^T V) ~ H db``, with ``D`` the bias-corrected
+    gyro rotation over the window and ``V`` the visual one): per frame the gyroscope is ~10x more precise than
+    the visual increment, over a second the vision's drift is smaller than the gyro bias's effect.
+    """
+    t, g, a = _check_imu_arrays(t_s, gyroscope_rad_s, accelerometer_m_s2)
+    filt = ImuAttitudeFilter(settings)
+    filt.reset(
+        initial_accelerometer_m_s2=initial_accelerometer_m_s2,
+        initial_bias_rad_s=initial_bias_rad_s,
+        initial_bias_std_rad_s=initial_bias_std_rad_s,
+        initial_tilt_std_deg=initial_tilt_std_deg,
+    )
+    n = len(t)
+    Rf = np.empty((n, 3, 3))
+    bf = np.empty((n, 3))
+    Rpred = np.empty((n, 3, 3))
+    gains = np.zeros((n, 6, 6))
+    # visual bookkeeping: gyro-only chain G (bias-corrected, no gravity corrections) and its bias Jacobian J
+    G, J = np.eye(3), np.zeros((3, 3))
+    n_frames = 0 if visual is None else len(visual.t_s)
+    used = np.zeros(n_frames, bool)
+    rejected = np.zeros(n_frames, bool)
+    if visual is not None:
+        rejected |= ~np.asarray(visual.ok, bool)
+    anchor: tuple[int, NDArray[np.float64], NDArray[np.float64]] | None = None
+    frame = 0
+    if visual is not None:
+        while frame < n_frames and visual.t_s[frame] < t[0]:
+            frame += 1
+    sg2 = settings.gyroscope_noise_rad_s_sqrt_hz**2
+    # rates[i]: the rate over (t_i, t_i+1] as the filter integrates it (last one: extrapolation)
+    if settings.gyroscope_rule == "backward":
+        rates = np.vstack([g[1:], g[-1:]])
+    else:
+        rates = np.vstack([0.5 * (g[:-1] + g[1:]), g[-1:]])
+    for i in range(n):
+        if i > 0:
+            P_prev = filt.kf.P.copy()
+            b_prev = filt.bias.copy()
+            dt = t[i] - t[i - 1]
+            dR = exp_so3((rates[i - 1] - b_prev) * dt)
+            status = filt.advance_to(t[i], g[i])
+            F = np.eye(6)
+            F[0:3, 0:3] = dR.T
+            F[0:3, 3:6] = -np.eye(3) * dt
+            P_pred = filt.kf.P
+            try:
+                gains[i - 1] = np.linalg.solve(P_pred, F @ P_prev).T
+            except np.linalg.LinAlgError:
+                gains[i - 1] = (np.linalg.pinv(P_pred) @ F @ P_prev).T
+            Rpred[i] = filt.rotation_world
+            G = G @ dR
+            J = dR.T @ J - np.eye(3) * dt
+        else:
+            status = filt.advance_to(t[0], g[0])
+        if status is None or filt.down_world is None:
+            filt.correct(g[i], a[i])
+        # visual frames in [t_i, t_i+1)
+        t_next = t[i + 1] if i + 1 < n else np.inf
+        while visual is not None and frame < n_frames and visual.t_s[frame] < t_next:
+            if not visual.ok[frame]:
+                anchor = None
+                frame += 1
+                continue
+            tau = float(visual.t_s[frame] - t[i])
+            rate = rates[i] - filt.bias
+            dRt = exp_so3(rate * tau)
+            Gf, Jf = G @ dRt, dRt.T @ J - np.eye(3) * tau
+            V = visual.rotations[frame]
+            if anchor is None:
+                anchor = (frame, Gf, Jf)
+            elif visual.t_s[frame] - visual.t_s[anchor[0]] >= visual.baseline_s:
+                k0, Ga, Ja = anchor
+                D = Ga.T @ Gf
+                r = log_so3(D.T @ (visual.rotations[k0].T @ V))
+                H = np.zeros((3, 6))
+                H[:, 3:6] = Jf - D.T @ Ja
+                window_s = float(visual.t_s[frame] - visual.t_s[k0])
+                var = np.radians(visual.std_deg) ** 2 + sg2 * window_s
+                ok_window = np.degrees(np.linalg.norm(r)) <= visual.outlier_deg
+                if ok_window:
+                    Rm = np.eye(3) * var
+                    S = H @ filt.kf.P @ H.T + Rm
+                    d2 = float(r @ np.linalg.solve(S, r))
+                    if d2 > visual.gate:
+                        Rm = Rm * (d2 / visual.gate)
+                    filt.update(r, H, Rm)
+                    used[k0 : frame + 1] = True
+                else:
+                    rejected[k0 + 1 : frame + 1] = True
+                # re-anchor on the gyro chain as it stands after the update (the bias moved)
+                anchor = (frame, Gf, Jf)
+            frame += 1
+        Rf[i] = filt.rotation_world
+        bf[i] = filt.bias
+    bias_std = float(np.sqrt(np.max(np.diag(filt.kf.P)[3:6])))
+    # Rauch-Tung-Striebel backward pass on the error state about the forward trajectory
+    Rs = Rf.copy()
+    bs = bf.copy()
+    for k in range(n - 2, -1, -1):
+        d = np.concatenate([log_so3(Rpred[k + 1].T @ Rs[k + 1]), bs[k + 1] - bf[k]])
+        dx = gains[k] @ d
+        Rs[k] = Rf[k] @ exp_so3(dx[0:3])
+        bs[k] = bf[k] + dx[3:6]
+    down = filt.down_world if filt.down_world is not None else np.array([0.0, 1.0, 0.0])
+    return SmoothedAttitude(
+        t_s=t, rotations_world=Rs, bias_rad_s=bs, interval_rates_rad_s=rates, down_world=np.asarray(down, float),
+        visual_used=used, visual_rejected=rejected & ~used, bias_std_rad_s=bias_std,
     )
