@@ -100,9 +100,11 @@ def _columns(track: FusionTrack, t_out: NDArray[np.float64]) -> dict[str, NDArra
     }
 
 
-#: IMU-only attitude filters: walkmon's error-state Kalman filter with its walking defaults, the same with
-#: the hand-held preset (gravity low-passed over 3 s), or VQF (offline variant; ``pip install vqf``), which is
-#: the best on hand-held real data (BROAD) but far worse on walking (see benchmarks/results/fusion.md).
+#: IMU-only attitude filters: walkmon's error-state Kalman filter with its walking defaults (simulated walks:
+#: ~0.03 deg), the same with the hand-held preset for real hand-held IMUs (gyro samples as interval means,
+#: gravity low-passed over 2 s in the gyro frame: on the BROAD trials no worse than vqf online and imufusion),
+#: or VQF (offline variant; ``pip install vqf``), the best on BROAD offline but 1-2 deg off in pitch on walks
+#: (its 3 s accelerometer low-pass takes the start and stop of walking for tilt; benchmarks/results/fusion.md).
 IMU_FILTERS = ("eskf", "eskf-handheld", "vqf")
 
 

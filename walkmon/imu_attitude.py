@@ -471,10 +471,14 @@ class ImuAttitudeFilter:
 
 # -------------------------------------------------------------------------------------------- offline
 def initial_state_from_rest(
-    t_s: NDArray[np.float64], gyro: NDArray[np.float64], accel: NDArray[np.float64], window_s: float = 1.0
+    t_s: NDArray[np.float64],
+    gyro: NDArray[np.float64],
+    accel: NDArray[np.float64],
+    window_s: float = 1.0,
+    max_window_s: float = 5.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, float | None, float | None]:
     """Mean accelerometer over the first ``window_s`` and, when the sensor was still then, the mean gyro as
-    the initial bias, with the bias and tilt uncertainties (rad/s, deg; all None when it moved: the filter then
+    the initial bias (both over the whole still start, up to ``max_window_s``), with the bias and tilt uncertainties (rad/s, deg; all None when it moved: the filter then
     learns the bias itself and starts from the settings' priors)."""
     n = max(2, int(np.searchsorted(t_s, t_s[0] + window_s)))
     a0 = accel[:n].mean(axis=0)
@@ -482,6 +486,19 @@ def initial_state_from_rest(
     still = g_dev < 3.0 and np.abs(np.linalg.norm(accel[:n], axis=1) - np.linalg.norm(a0)).max() < 0.6
     if not still:
         return a0, None, None, None
+    # extend over the whole still start (up to max_window_s) in 0.25 s blocks whose mean gyro and accelerometer
+    # stay at the first window's: a 2 s still start halves the bias error of a 1 s window (the zero-rate
+    # updates at rest only start after rest_min_s)
+    g0 = gyro[:n].mean(axis=0)
+    while t_s[n - 1] - t_s[0] < max_window_s:
+        m = int(np.searchsorted(t_s, t_s[n - 1] + 0.25))
+        if m >= len(t_s) or m - n < 5:
+            break
+        if np.degrees(np.abs(gyro[n:m].mean(axis=0) - g0)).max() > 0.05 or np.abs(accel[n:m].mean(axis=0) - a0).max() > 0.03:
+            break
+        n = m
+        g0 = gyro[:n].mean(axis=0)
+    a0 = accel[:n].mean(axis=0)
     std = float(np.max(gyro[:n].std(axis=0)) / np.sqrt(n))
     tilt_std_deg = float(np.degrees(np.max(accel[:n].std(axis=0)) / np.linalg.norm(a0) / np.sqrt(n)))
     return a0, gyro[:n].mean(axis=0), max(2.0 * std, 5e-5), max(2.0 * tilt_std_deg, 0.05)
