@@ -207,8 +207,10 @@ class BrokenSource(GaitSource):
 
 def test_a_failing_thread_is_reported_not_silent(bend_model: GaitModel, tmp_path: Path,
                                                  caplog: pytest.LogCaptureFixture) -> None:
+    from walkmon.errors import WalkmonError
+
     p = make_pipeline(BrokenSource(bend_model), TruthEstimator(bend_model), tmp_path)
-    with pytest.raises(SourceError, match="driver bug"):
+    with pytest.raises(WalkmonError, match="driver bug"):
         p.run()
     assert any("grabber thread failed" in r.message for r in caplog.records)
     (s,) = list_sessions(tmp_path)
@@ -230,3 +232,38 @@ def test_imu_samples_are_logged_with_the_session(bend_model: GaitModel, tmp_path
     imu = read_session_table(conn, res.session_id, "imu")
     conn.close()
     assert np.allclose(imu["t_s"], t) and np.allclose(imu["gy"], 0.001 * np.arange(400)) and set(imu["ay"]) == {-9.81}
+
+
+class SlowCommitLog(SessionLog):
+    """A session log whose commits take 300 ms (an SD card's fsync on a bad day)."""
+
+    def flush(self) -> None:
+        time.sleep(0.3)
+        super().flush()
+
+
+def test_slow_database_commits_do_not_stall_frames(bend_model: GaitModel, tmp_path: Path) -> None:
+    src = GaitSource(bend_model, stop_after_s=3.0, realtime=True)
+    p = LivePipeline(src, lambda _s: TruthEstimator(bend_model), indicators=LiveIndicatorStage(),
+                     alerts=AlertStage(), session_log=SlowCommitLog(tmp_path, flush_interval_s=0.2))
+    res = p.run()
+    assert res.dropped == 0 and res.frames == src.produced  # a 300 ms stall would overflow the 4-frame queue
+    assert list_sessions(tmp_path)[0].n_frames == res.frames
+
+
+class FailingLog(SessionLog):
+    def add_frame(self, *args: object, **kw: object) -> None:
+        if self.n_frames == 20:
+            raise sqlite3.OperationalError("database or disk is full")
+        super().add_frame(*args, **kw)  # type: ignore[arg-type]
+
+
+def test_a_failing_session_log_ends_the_session_with_the_error(bend_model: GaitModel, tmp_path: Path) -> None:
+    from walkmon.errors import WalkmonError
+
+    p = LivePipeline(GaitSource(bend_model, stop_after_s=5.0, realtime=True), lambda _s: TruthEstimator(bend_model),
+                     indicators=LiveIndicatorStage(), alerts=AlertStage(), session_log=FailingLog(tmp_path))
+    with pytest.raises(WalkmonError, match="disk is full"):
+        p.run()
+    (s,) = list_sessions(tmp_path)
+    assert s.end_reason.startswith("error") and s.n_frames == 20

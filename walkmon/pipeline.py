@@ -6,7 +6,7 @@
                                             │
     IMU source ──IMU thread──▶ IMU buffer   ▼   processing loop (the caller's thread)
                                   rotation estimator → LiveIndicatorStage → AlertStage → sinks
-                                            └──────────────▶ SessionLog (batched commits) ◀───┘
+                                            └──▶ session-log thread: SessionLog (batched commits) ◀──┘
 
 * The grabber thread reads frames with their capture timestamps and puts them in a bounded
   :class:`~walkmon.frame_queue.FrameQueue`; when processing falls behind the oldest frames are dropped and
@@ -14,8 +14,10 @@
   with exponential backoff; any other source ends the session cleanly ("end of stream").
 * Threads are stoppable (a stop Event, blocking calls with timeouts, ``join`` with a timeout) and never die
   silently: an unexpected exception is logged with its traceback and re-raised in the caller by :meth:`run`.
-* The processing loop pings the systemd watchdog, sends READY=1 once the first frame arrived, commits the
-  session log at least every ``flush_interval_s``, and calls ``on_hop`` once per hop (status line).
+* The processing loop pings the systemd watchdog, sends READY=1 once the first frame arrived, and calls
+  ``on_hop`` once per hop (status line). Session-log writes go to their own thread, which commits at least every
+  ``flush_interval_s``: an fsync that takes hundreds of milliseconds (SD cards, busy disks) never stalls the
+  frames.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ import numpy as np
 from walkmon.alert_sinks import AlertSinks
 from walkmon.alerts import AlertEvent, AlertStage
 from walkmon.config import PipelineSettings
-from walkmon.errors import ConfigError, SourceDisconnected, SourceError, SourceTimeout
+from walkmon.errors import ConfigError, SourceDisconnected, SourceError, SourceTimeout, WalkmonError
 from walkmon.frame_queue import FrameQueue, QueueClosed
 from walkmon.live_indicators import LiveIndicators, LiveIndicatorStage
 from walkmon.sdnotify import Notifier
@@ -175,6 +177,63 @@ def _status_text(status: Any) -> str:
     return str(getattr(status, "name", None) or getattr(status, "value", None) or status)
 
 
+class _LogWriter:
+    """The session log's own thread: database commits (fsync, up to hundreds of ms on SD cards and busy disks)
+    never stall the processing loop. Calls are queued in order and applied by the thread, which also commits
+    at least every ``flush_interval_s``. The backlog is bounded; calls beyond it are dropped and counted.
+    """
+
+    MAX_BACKLOG = 100_000
+
+    def __init__(self, log: SessionLog, errors: list[BaseException], on_error: Callable[[], None]) -> None:
+        self.log = log
+        self._calls: collections.deque[tuple[Callable[..., Any], tuple[Any, ...]] | None] = collections.deque()
+        self._cond = threading.Condition()
+        self._errors, self._on_error = errors, on_error
+        self.dropped_calls = 0
+        self._thread = threading.Thread(target=self._run, name="walkmon-session-log", daemon=True)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def call(self, fn: Callable[..., Any], *args: Any) -> None:
+        with self._cond:
+            if len(self._calls) >= self.MAX_BACKLOG:
+                self.dropped_calls += 1
+                return
+            self._calls.append((fn, args))
+            self._cond.notify()
+
+    def _run(self) -> None:
+        try:
+            while True:
+                with self._cond:
+                    if not self._calls:
+                        self._cond.wait(min(0.1, self.log.flush_interval_s / 2))
+                    batch = list(self._calls)
+                    self._calls.clear()
+                for item in batch:
+                    if item is None:
+                        return
+                    fn, args = item
+                    fn(*args)
+                self.log.maybe_flush()
+        except BaseException as exc:
+            _log.exception("session log thread failed")
+            self._errors.append(exc)
+            self._on_error()
+
+    def stop(self, timeout_s: float) -> None:
+        """Apply everything queued, then end the thread (the caller closes the log afterwards)."""
+        with self._cond:
+            self._calls.append(None)
+            self._cond.notify()
+        if self._thread.is_alive():
+            self._thread.join(timeout_s)
+            if self._thread.is_alive():
+                _log.error("session log thread did not finish within %.0f s", timeout_s)
+
+
 class LivePipeline:
     """Run one live session: ``run(duration_s)`` in the calling thread; ``stop()`` from anywhere.
 
@@ -205,15 +264,16 @@ class LivePipeline:
         self.indicators = indicators
         self.alerts = alerts
         self.log = session_log
+        self._stop = threading.Event()
+        self._thread_errors: list[BaseException] = []
+        self._writer = _LogWriter(session_log, self._thread_errors, self._stop.set)
         self.sinks = sinks
         self.settings = settings
         self.notifier = notifier or Notifier({})
         self.on_hop = on_hop
         self.on_frame = on_frame
         self.queue: FrameQueue[_Grabbed] = FrameQueue(settings.queue_size)
-        self._stop = threading.Event()
         self._calibrate = threading.Event()
-        self._thread_errors: list[BaseException] = []
         self._end_reason = ""
         self._reconnects = 0
         self._reconnecting = False
@@ -353,7 +413,7 @@ class LivePipeline:
             gyr = getattr(smp, "gyroscope_rad_s", None) or (math.nan, math.nan, math.nan)
             acc = getattr(smp, "accelerometer_m_s2", None)
             if acc is not None:
-                self.log.add_imu(float(smp.t_s), gyr, acc)
+                self._writer.call(self.log.add_imu, float(smp.t_s), gyr, acc)
                 self._imu_count += 1
 
     # -- the session ----------------------------------------------------------------------------------
@@ -366,8 +426,9 @@ class LivePipeline:
         wall0 = time.monotonic()
         threads: list[threading.Thread] = []
         error: BaseException | None = None
-        hops = alerts_raised = 0
+        hops = alerts_raised = n_frames = 0
         first_t = last_t = math.nan
+        self._writer.start()
         try:
             self.camera.open()
             estimator = self._estimator_factory(self.camera)
@@ -383,7 +444,6 @@ class LivePipeline:
             last_frame_mono: float | None = None  # before the first frame: TimeoutStartSec's business
             while not self._stop.is_set():
                 self._watchdog(last_frame_mono)
-                self.log.maybe_flush()
                 if duration_s is not None and time.monotonic() - wall0 >= duration_s:
                     self._end_reason = self._end_reason or f"duration {duration_s:g} s reached"
                     break
@@ -412,10 +472,12 @@ class LivePipeline:
                 last_t = frame.t_s
                 last_frame_mono = done
                 fps_window.append(frame.t_s)
-                self.log.n_dropped = self.queue.dropped
-                self.log.add_frame(frame.t_s, angles, int(getattr(estimate, "n_inliers", -1) or -1),
-                                   str(getattr(estimate, "model", "") or ""),
-                                   _status_text(getattr(estimate, "status", None)), latency_ms)
+                n_frames += 1
+                self._writer.call(setattr, self.log, "n_dropped", self.queue.dropped)
+                self._writer.call(self.log.add_frame, frame.t_s, angles,
+                                  int(getattr(estimate, "n_inliers", -1) or -1),
+                                  str(getattr(estimate, "model", "") or ""),
+                                  _status_text(getattr(estimate, "status", None)), latency_ms)
                 if self.on_frame is not None:
                     self.on_frame(FrameResult(frame.t_s, angles, latency_ms, estimate, frame.truth_angles_deg))
                 ind = self.indicators.push(frame.t_s, angles)
@@ -423,16 +485,16 @@ class LivePipeline:
                     continue
                 hops += 1
                 events = self.alerts.push(ind)
-                self.log.add_hop(ind)
+                self._writer.call(self.log.add_hop, ind)
                 for ev in events:
-                    self.log.add_alert(ev)
+                    self._writer.call(self.log.add_alert, ev)
                     alerts_raised += ev.state == "raised"
                 if events and self.sinks is not None:
                     self.sinks.deliver(events)
                 fps = ((len(fps_window) - 1) / (fps_window[-1] - fps_window[0])
                        if len(fps_window) > 1 and fps_window[-1] > fps_window[0] else math.nan)
                 if self.on_hop is not None:
-                    self.on_hop(HopReport(ind, tuple(events), self.alerts.active, self.log.n_frames,
+                    self.on_hop(HopReport(ind, tuple(events), self.alerts.active, n_frames,
                                           self.queue.dropped, fps, self.latency.percentile(99), last_angles,
                                           time.monotonic() - wall0))
             if not self._end_reason:
@@ -456,16 +518,23 @@ class LivePipeline:
                 self.sinks.close()
             if self._thread_errors and error is None:
                 self._end_reason = f"error: {self._thread_errors[0]}"
+            self._writer.stop(_JOIN_TIMEOUT_S + 10.0)
             self.log.n_dropped = self.queue.dropped
-            self.log.close(self._end_reason, meta={
-                "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
-                "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows})
+            if self._writer.dropped_calls:
+                _log.error("session log fell behind: %d writes dropped", self._writer.dropped_calls)
+            try:
+                self.log.close(self._end_reason, meta={
+                    "log_writes_dropped": self._writer.dropped_calls,
+                    "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
+                    "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows})
+            except Exception:  # a broken database must not hide why the session ended
+                _log.exception("closing the session log failed")
         if self._thread_errors:
             exc0 = self._thread_errors[0]
             if isinstance(exc0, SourceError):
                 raise exc0
             msg = f"a pipeline thread failed: {exc0!r}"
-            raise SourceError(msg) from exc0
+            raise WalkmonError(msg) from exc0
         return PipelineResult(
             session_id=self.log.session_id,
             end_reason=self._end_reason,
