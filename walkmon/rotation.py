@@ -75,8 +75,10 @@ class RotationSettings:
 
     fast method
         ``tracking_scale``: track at this fraction of the input resolution (1.0 = full; 0.5 halves width and
-        height, about 3x cheaper, see benchmarks/results/rotation.md). ``max_features``: corners per keyframe.
-        ``min_feature_distance_px``: spacing of detected corners. ``klt_window_px``/``klt_levels``: Lucas-Kanade
+        height, about 3x cheaper, see benchmarks/results/rotation.md), but never narrower than
+        ``min_tracking_width_px`` (or the frame itself). ``max_features``: corners per keyframe.
+        ``min_feature_distance_px``: spacing of detected corners in a 640 px wide video (scaled with the
+        width, so a smaller video gets as many corners across its view). ``klt_window_px``/``klt_levels``: Lucas-Kanade
         window (at tracking resolution) and pyramid levels. ``keyframe_max_frames``,
         ``keyframe_min_track_fraction``, ``keyframe_max_rotation_deg``: start a new keyframe when any is
         exceeded. ``keyframe_window``: keyframes kept for the sliding-window refinement of each new keyframe's
@@ -94,6 +96,7 @@ class RotationSettings:
 
     method: str = "fast"
     tracking_scale: float = 0.5
+    min_tracking_width_px: int = 320
     max_features: int = 160
     min_feature_distance_px: float = 16.0
     klt_window_px: int = 9
@@ -119,6 +122,7 @@ class RotationSettings:
             raise ConfigError(msg)
         checks = {
             "tracking_scale": 0.1 <= self.tracking_scale <= 1.0,
+            "min_tracking_width_px": self.min_tracking_width_px >= 16,
             "max_features": self.max_features >= 10,
             "min_feature_distance_px": self.min_feature_distance_px > 0,
             "klt_window_px": self.klt_window_px >= 3,
