@@ -66,3 +66,30 @@ def test_foot_drag_320_does_not_slide(foot_drag_320, overrides):
 def test_min_tracking_width_is_validated():
     with pytest.raises(ConfigError, match="min_tracking_width_px"):
         RotationSettings(min_tracking_width_px=0)
+
+
+def test_sliding_essential_fit_is_flagged_not_trusted(foot_drag_320, monkeypatch):
+    """The safety net: put the old warm-started refinement back and check that its slide is caught.
+
+    The essential fit is compared with the rotation-only fit; when they differ by more than the parallax
+    explains, the frame is LOW_QUALITY and the rotation-only fit is used. Without that check this run reached
+    5.1 deg of error with every frame ok.
+    """
+    from walkmon import _rotation_fast, geometry
+
+    def warm_started_fit(self, q_kf, q_cur, R_rot):
+        c = getattr(self, "_test_c", None) if self._frames_since_kf else None
+        pose = geometry.refine_relative_pose(
+            q_kf, q_cur, self._focal, self._R_rel if c is not None else R_rot, c,
+            scale_px=2 * self.s.feature_noise_px, inlier_px=self.s.inlier_px, iterations=4,
+        )
+        self._test_c = pose.centre
+        return pose
+
+    monkeypatch.setattr(_rotation_fast.FastEngine, "_essential_fit", warm_started_fit)
+    settings = RotationSettings(min_tracking_width_px=16, min_feature_distance_px=32.0)
+    err, _truth, out = _errors(foot_drag_320, settings)
+    flagged = [o for o in out if o.status is EstimateStatus.LOW_QUALITY]
+    assert flagged, "the slide went unflagged"
+    assert all(o.model == "rotation" for o in flagged)
+    assert np.abs(err).max() < 2.5, np.abs(err).max(axis=0)  # 5.1 deg without the check

@@ -60,7 +60,9 @@ class EstimateStatus(enum.Enum):
     TOO_FEW_FEATURES = "too_few_features"
     #: The frame is identical to the previous one: the last orientation is held.
     REPEATED_FRAME = "repeated_frame"
-    #: A fit was made but failed its checks (few inliers, implausible jump): the last orientation is held.
+    #: A fit was made but failed its checks. Few inliers or an implausible jump: the last orientation is held.
+    #: The essential fit strayed from the rotation-only fit beyond what the parallax explains: the rotation-only
+    #: fit is used (``model == "rotation"``), since holding would turn the walker's motion into a jump.
     LOW_QUALITY = "low_quality"
 
     @property
