@@ -2,9 +2,10 @@
 
 Per frame: build the LK pyramid of the (downscaled) grey frame, track the previous frame's points, convert
 tracked positions to normalised coordinates (undistorted), fit the rotation-only model and the essential model
-(Gauss-Newton from the previous frame's estimate) against the keyframe's positions of the same tracks, choose
-with GRIC, drop outlier tracks, and start a new keyframe (re-detecting corners in the gaps) when tracks thin
-out, the rotation since the keyframe grows or the keyframe gets old. The orientation is the keyframe's
+(Gauss-Newton started from the rotation-only fit) against the keyframe's positions of the same tracks, choose
+with GRIC, flag the frame when the essential rotation strays from the rotation-only one further than the
+parallax explains, drop outlier tracks, and start a new keyframe (re-detecting corners in the gaps) when tracks
+thin out, the rotation since the keyframe grows or the keyframe gets old. The orientation is the keyframe's
 orientation times the relative rotation, so error only accumulates once per keyframe, not once per frame.
 """
 

@@ -7,9 +7,11 @@ camera at ``t_s`` relative to the first frame (conventions of :mod:`walkmon.cons
     Corners tracked with pyramidal Lucas-Kanade at reduced resolution, re-detected only when tracks thin out.
     Every frame is compared with the current *keyframe* (not only the previous frame), so per-frame errors do
     not pile up; keyframes are chained. For each frame both a rotation-only model and an essential-matrix model
-    (refined from the previous estimate, so it never flips to the ~180 degree twisted pair) are fitted and
+    (refined from the rotation-only fit, so it never flips to the ~180 degree twisted pair) are fitted and
     GRIC picks the one the data support: rotation-only while standing or at short baselines, essential when
-    the walker's translation shows as parallax. See :mod:`walkmon.geometry`.
+    the walker's translation shows as parallax. A frame whose essential rotation strays from the
+    rotation-only one further than the parallax explains is LOW_QUALITY (rotation-only used). See
+    :mod:`walkmon.geometry`.
 
 ``paper``
     The reference paper's pipeline as written (AKAZE, LK to find the matching area, FLANN, 5-point RANSAC,
