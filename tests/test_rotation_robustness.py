@@ -90,6 +90,7 @@ def test_sliding_essential_fit_is_flagged_not_trusted(foot_drag_320, monkeypatch
     settings = RotationSettings(min_tracking_width_px=16, min_feature_distance_px=32.0)
     err, _truth, out = _errors(foot_drag_320, settings)
     flagged = [o for o in out if o.status is EstimateStatus.LOW_QUALITY]
-    assert flagged, "the slide went unflagged"
     assert all(o.model == "rotation" for o in flagged)
-    assert np.abs(err).max() < 2.5, np.abs(err).max(axis=0)  # 5.1 deg without the check
+    assert np.abs(err).max() < 2.5, np.abs(err).max(axis=0)  # 5.1 deg without the check (1.6 with it)
+    if np.abs(err).max() > 1.0:  # it slid (it does on today's renderer): the slide must have been flagged
+        assert flagged, "the slide went unflagged"
