@@ -3,6 +3,7 @@
     python benchmarks/bench_rotation.py            # full: 4 walk types x 16 s, distorted lens, 40 s walk
     python benchmarks/bench_rotation.py --quick    # normal + bend, 8 s, paper on 4 s (a few minutes)
     python benchmarks/bench_rotation.py --sweep    # fast only: 4 walk types x 5 seeds x 640x480 and 320x240
+    python benchmarks/bench_rotation.py --sweep --sizes 160x120 --out benchmarks/results/rotation-sweep-160x120
 
 The sweep (``--sweep``, results in benchmarks/results/rotation-sweep.md/.json) exists because one seed at one
 size hid a failure: right_foot_drag seed 2 at 320x240 slid 3.2 deg in 0.4 s with status ok.
