@@ -18,6 +18,8 @@ class FileImu:
 
     def __init__(self, url: str, path: str, realtime: bool = False) -> None:
         self.url, self.path, self.realtime = url, path, realtime
+        #: realtime=0 reads as fast as possible: the pipeline then takes samples up to each frame's time
+        self.live = realtime
         self._rows: dict[str, object] | None = None
         self._i = 0
         self._t0_mono = 0.0

@@ -53,9 +53,64 @@ class CameraSettings:
 
 @dataclass(frozen=True, slots=True)
 class ImuSettings:
-    """Optional IMU source URL (``serial:...`` or ``file:imu.csv``); empty: no IMU."""
+    """Optional IMU source URL (``serial:...``, ``file:imu.csv`` or ``depthai:``); empty: no IMU.
+
+    With an IMU the live angles are the camera-IMU fusion's (:class:`walkmon.fusion.LiveFusion`).
+    ``time_offset_s``: added to IMU timestamps to put them on the camera's clock (file and sim sources share
+    one clock: 0; real devices: the host-side timestamps of both drivers are assumed on one clock, so this is
+    the residual latency difference, IMU minus camera). IMU-to-camera rotation (maps IMU axes to camera
+    axes, camera x right, y down, z forward): ``extrinsics`` = 9 numbers of the row-major matrix, or
+    ``rotation_deg`` = [pitch, yaw, roll] (``walkmon.consts.rotation_from_angles_deg``); not both; default
+    identity. ``warmup_s``: IMU data gathered before fusing (initial gravity and, if still, gyro bias);
+    ``max_gap_s``: IMU samples further apart restart the filter; ``max_lag_s``: a frame later than the newest
+    IMU sample by more than this is camera-only (the live loop waits up to ``max_gap_s`` for an IMU that is
+    slightly behind before giving up on a frame).
+    """
 
     url: str = ""
+    time_offset_s: float = 0.0
+    extrinsics: tuple[float, ...] = ()
+    rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    warmup_s: float = 1.0
+    max_gap_s: float = 0.1
+    max_lag_s: float = 0.02
+
+    def __post_init__(self) -> None:
+        if self.extrinsics:
+            if len(self.extrinsics) != 9:
+                msg = f"imu.extrinsics must be 9 numbers (row-major 3x3 rotation), got {len(self.extrinsics)}"
+                raise ValueError(msg)
+            m = [self.extrinsics[i * 3:(i + 1) * 3] for i in range(3)]
+            det = (m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                   + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]))
+            ortho = all(abs(sum(m[i][k] * m[j][k] for k in range(3)) - (i == j)) < 1e-3 for i in range(3) for j in range(3))
+            if not ortho or abs(det - 1.0) > 1e-3:
+                msg = f"imu.extrinsics must be a rotation matrix (orthonormal, det +1), got {list(self.extrinsics)}"
+                raise ValueError(msg)
+            if any(self.rotation_deg):
+                msg = "imu.extrinsics and imu.rotation_deg are alternatives: give one"
+                raise ValueError(msg)
+        if not abs(self.time_offset_s) < 10.0:
+            msg = f"imu.time_offset_s must be within +-10 s, got {self.time_offset_s}"
+            raise ValueError(msg)
+        if not 0 <= self.warmup_s <= 10.0:
+            msg = f"imu.warmup_s must be in [0, 10], got {self.warmup_s}"
+            raise ValueError(msg)
+        if not 0 < self.max_gap_s <= 5.0:
+            msg = f"imu.max_gap_s must be in (0, 5], got {self.max_gap_s}"
+            raise ValueError(msg)
+        if not 0 <= self.max_lag_s <= self.max_gap_s:
+            msg = f"imu.max_lag_s must be in [0, max_gap_s], got {self.max_lag_s}"
+            raise ValueError(msg)
+
+    @property
+    def camera_from_imu(self) -> tuple[float, ...]:
+        """The IMU-to-camera rotation as 9 row-major numbers."""
+        if self.extrinsics:
+            return tuple(float(v) for v in self.extrinsics)
+        from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
+
+        return tuple(float(v) for v in rotation_from_angles_deg(*self.rotation_deg).ravel())
 
 
 @dataclass(frozen=True, slots=True)

@@ -18,13 +18,14 @@ frame) and the gravity-referenced ``pitch_abs, roll_abs``.
 
 from __future__ import annotations
 
+import collections
 import logging
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from walkmon.consts import angles_deg_from_rotation, gravity_angles_deg_from_gravity
+from walkmon.consts import GRAVITY_MS2, angles_deg_from_rotation, gravity_angles_deg_from_gravity
 from walkmon.errors import ConfigError, InvalidInputError
 from walkmon.imu_attitude import (
     DEFAULT_ATTITUDE_SETTINGS,
@@ -43,6 +44,9 @@ __all__ = [
     "FusedEstimate",
     "FusionSettings",
     "FusionTrack",
+    "LiveFusedFrame",
+    "LiveFusion",
+    "LiveFusionSettings",
     "fuse_recording",
 ]
 
@@ -438,3 +442,212 @@ def _smoothed_recording(
         frames_rejected=int(sm.visual_rejected.sum()) if Rv is not None else 0,
         method="imu" if Rv is None else "fused",
     )
+
+
+# ------------------------------------------------------------------------------------------------ live stage
+
+
+@dataclass(frozen=True, slots=True)
+class LiveFusionSettings:
+    """Settings of :class:`LiveFusion` (the ``[imu]`` section of the live config feeds them).
+
+    ``fusion``: the filter (its ``camera_from_imu`` and ``time_offset_s`` come from ``[imu] extrinsics`` /
+    ``rotation_deg`` and ``time_offset_s``). ``warmup_s``: IMU data collected before the filter starts, for its
+    initial gravity and (when the sensor was still) gyroscope bias, as the offline start does with the still
+    start; frames meanwhile are camera-only. ``max_lag_s``: a frame later than the newest IMU sample (on the
+    video clock) by more than this is camera-only (extrapolating the last gyro reading through walking
+    motion costs tenths of a degree within 0.1 s); the filter waits for the IMU. ``max_gap_s``: IMU samples
+    this far apart are a gap: the filter restarts from the next one (keeping its bias and the gravity
+    direction carried on by the camera). ``max_pending``: IMU samples held waiting for
+    their frame (oldest dropped beyond it, counted).
+    """
+
+    fusion: FusionSettings = DEFAULT_FUSION_SETTINGS
+    warmup_s: float = 1.0
+    max_gap_s: float = 0.1
+    max_lag_s: float = 0.02
+    max_pending: int = 20000
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.warmup_s) and self.warmup_s >= 0):
+            msg = f"warmup_s must be >= 0, got {self.warmup_s}"
+            raise ConfigError(msg)
+        if not (np.isfinite(self.max_gap_s) and self.max_gap_s > 0 and np.isfinite(self.max_lag_s) and self.max_lag_s >= 0):
+            msg = f"max_gap_s must be > 0 and max_lag_s >= 0, got {self.max_gap_s}, {self.max_lag_s}"
+            raise ConfigError(msg)
+        if self.max_pending < 1:
+            msg = f"max_pending must be >= 1, got {self.max_pending}"
+            raise ConfigError(msg)
+
+
+@dataclass(frozen=True, slots=True)
+class LiveFusedFrame:
+    """One frame out of :class:`LiveFusion`: start-relative ``angles_deg`` (pitch, yaw, roll) and
+    ``abs_angles_deg`` (gravity-referenced pitch, roll; NaN when not fused). ``mode``: ``fused`` or
+    ``camera`` (camera-only); ``reason`` for camera-only frames: ``no_imu`` (no sample yet), ``warmup``,
+    ``imu_gap`` (IMU late, paused or disconnected)."""
+
+    t_s: float
+    rotation: NDArray[np.float64]
+    angles_deg: tuple[float, float, float]
+    abs_angles_deg: tuple[float, float]
+    mode: str
+    reason: str = ""
+
+
+class LiveFusion:
+    """Stage of the live pipeline: camera rotation estimates + IMU samples -> fused orientation per frame.
+
+    ``push_imu(t_s, gyro, accel)`` in arrival order (IMU clock; samples not after the previous one are dropped
+    and counted), ``push_frame(t_s, rotation, ok)`` per frame (video clock; ``rotation`` start-relative as the
+    rotation estimator reports it). Samples wait until a frame at or after their time, so an IMU ahead of the
+    video (file replay) is used in time order. The output is continuous across modes: camera-only frames chain
+    the visual increments onto the last output, and a (re)started filter is anchored to the output at its
+    first frame. ``counters()`` for status lines and logs. No I/O, no threads.
+    """
+
+    def __init__(self, settings: LiveFusionSettings = LiveFusionSettings()) -> None:  # noqa: B008 - frozen
+        self.settings = settings
+        self.reset()
+
+    def reset(self) -> None:
+        self._pending: collections.deque[tuple[float, NDArray[np.float64], NDArray[np.float64]]] = collections.deque()
+        self._warmup: list[tuple[float, NDArray[np.float64], NDArray[np.float64]]] = []
+        self._fusion: CameraImuFusion | None = None
+        self._needs_restart = False
+        self._last_imu_t: float | None = None  # video clock, last sample accepted
+        self._filter_t: float | None = None  # video clock, last sample pushed into the filter
+        self._bias: NDArray[np.float64] | None = None
+        self._down: NDArray[np.float64] | None = None  # gravity (down) in the camera frame at the last output
+        self._anchor: NDArray[np.float64] = np.eye(3)
+        self._last_out: NDArray[np.float64] | None = None
+        self._last_visual: NDArray[np.float64] | None = None
+        self._fresh = False
+        self.n_fused = 0
+        self.n_camera_only: dict[str, int] = {"no_imu": 0, "warmup": 0, "imu_gap": 0}
+        self.n_restarts = 0
+        self.n_imu_dropped = 0
+        self.n_imu = 0
+
+    def counters(self) -> dict[str, object]:
+        """Counts for the status line / hop JSON: fused and camera-only frames (by reason), filter restarts,
+        IMU samples used and dropped."""
+        return {"frames_fused": self.n_fused, "frames_camera_only": dict(self.n_camera_only),
+                "filter_restarts": self.n_restarts, "imu_samples": self.n_imu, "imu_dropped": self.n_imu_dropped}
+
+    # -- input ------------------------------------------------------------------------------------------
+    def push_imu(self, t_s: float, gyroscope_rad_s: ArrayLike | None, accelerometer_m_s2: ArrayLike) -> None:
+        tv = float(t_s) + self.settings.fusion.time_offset_s
+        if gyroscope_rad_s is None or not np.isfinite(tv) or (self._last_imu_t is not None and tv <= self._last_imu_t):
+            self.n_imu_dropped += 1
+            return
+        g = np.asarray(gyroscope_rad_s, dtype=float)
+        a = np.asarray(accelerometer_m_s2, dtype=float)
+        if g.shape != (3,) or a.shape != (3,) or not (np.all(np.isfinite(g)) and np.all(np.isfinite(a))):
+            self.n_imu_dropped += 1
+            return
+        self._last_imu_t = tv
+        if len(self._pending) >= self.settings.max_pending:
+            self._pending.popleft()
+            self.n_imu_dropped += 1
+        self._pending.append((tv, g, a))
+
+    def _feed(self, tv: float, g: NDArray[np.float64], a: NDArray[np.float64]) -> None:
+        """One sample (video clock) into the warm-up buffer or the running filter."""
+        s = self.settings
+        if self._filter_t is not None and tv - self._filter_t > s.max_gap_s:
+            if self._fusion is not None:
+                self._needs_restart = True  # an IMU gap: the filter restarts from this sample, keeping its bias
+            else:
+                self._warmup = []  # a gap during the warm-up: start it again
+        self._filter_t = tv
+        self.n_imu += 1
+        if self._needs_restart:
+            self._start([(tv, g, a)], restart=True)
+            return
+        if self._fusion is None:
+            self._warmup.append((tv, g, a))
+            if tv - self._warmup[0][0] >= s.warmup_s and len(self._warmup) >= 2:
+                self._start(self._warmup, restart=False)
+                self._warmup = []
+            return
+        self._fusion.push_imu(tv - s.fusion.time_offset_s, g, a)
+
+    def _start(self, samples: list[tuple[float, NDArray[np.float64], NDArray[np.float64]]], *, restart: bool) -> None:
+        s = self.settings.fusion
+        R_ci = s.camera_from_imu_matrix
+        t = np.array([x[0] for x in samples])
+        g = np.array([x[1] for x in samples])
+        a = np.array([x[2] for x in samples])
+        if restart:
+            # keep what the filter had learnt: the bias, and gravity from the last fused frame carried on by the
+            # camera-only frames since (a single accelerometer sample while walking can be degrees off)
+            b0 = self._bias
+            if self._down is not None:
+                a0, tilt = R_ci.T @ (-GRAVITY_MS2 * self._down), 1.0
+            else:
+                a0, tilt = a[0], 5.0
+            b0_std = None if b0 is None else float(np.radians(0.1))
+            self.n_restarts += 1
+            _log.warning("IMU gap: fusion filter restarted at t=%.3f s", t[0])
+        else:
+            a0, b0, b0_std, tilt = initial_state_from_rest(t, g @ R_ci.T, a @ R_ci.T)
+            a0 = R_ci.T @ a0
+            b0 = None if b0 is None else R_ci.T @ b0
+            if len(t) > 1 and t[-1] > t[0]:
+                rate = (len(t) - 1) / (t[-1] - t[0])
+                s = replace(s, attitude=replace(s.attitude, rate_hz_nominal=float(rate)))
+            if b0 is None:  # not still: weight the vision as while the bias is unknown (as fuse_recording)
+                s = replace(s, visual_std_deg=s.visual_std_unknown_bias_deg)
+            _log.info("IMU warm-up done (%d samples): fusion starts at t=%.3f s", len(t), t[-1])
+        fusion = CameraImuFusion(s)
+        fusion.reset(initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0, initial_bias_std_rad_s=b0_std,
+                     initial_tilt_std_deg=tilt)
+        for tv, gk, ak in samples:
+            fusion.push_imu(tv - s.time_offset_s, gk, ak)
+        self._fusion = fusion
+        self._needs_restart = False
+        self._fresh = True  # the next fused frame anchors the filter's reference to the output
+
+    # -- per frame --------------------------------------------------------------------------------------
+    def push_frame(self, t_s: float, visual_rotation: ArrayLike, ok: bool = True) -> LiveFusedFrame:
+        t_s = float(t_s)
+        while self._pending and self._pending[0][0] <= t_s:
+            self._feed(*self._pending.popleft())
+        Rv = np.asarray(visual_rotation, dtype=float)
+        fused = self._fusion is not None and not self._needs_restart
+        reason = ""
+        if self._filter_t is None:
+            reason = "no_imu"
+        elif t_s - self._filter_t > self.settings.max_lag_s:
+            reason = "imu_gap"
+        elif not fused:
+            reason = "imu_gap" if self._needs_restart else "warmup"
+        if reason:
+            out = self._camera_only(Rv)
+            self.n_camera_only[reason] += 1
+            if self._down is not None and self._last_visual is not None:
+                self._down = (self._last_visual.T @ Rv).T @ self._down
+            self._last_out, self._last_visual = out, Rv
+            return LiveFusedFrame(t_s, out, tuple(float(v) for v in angles_deg_from_rotation(out)),  # type: ignore[arg-type]
+                                  (np.nan, np.nan), "camera", reason)
+        assert self._fusion is not None
+        est = self._fusion.push_frame(max(t_s, self._filter_t or t_s), Rv, ok)
+        if self._fresh:
+            self._fresh = False
+            base = self._camera_only(Rv) if self._last_out is not None else np.eye(3)
+            self._anchor = base @ est.rotation.T
+        out = self._anchor @ est.rotation
+        self._bias = np.asarray(est.gyroscope_bias_rad_s, dtype=float)  # in the IMU's axes, as reset() takes it
+        self._down = np.asarray(est.gravity_down, dtype=float)
+        self.n_fused += 1
+        self._last_out, self._last_visual = out, Rv
+        return LiveFusedFrame(t_s, out, tuple(float(v) for v in angles_deg_from_rotation(out)),  # type: ignore[arg-type]
+                              (float(est.abs_angles_deg[0]), float(est.abs_angles_deg[1])), "fused")
+
+    def _camera_only(self, Rv: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The last output moved on by the visual increment since the last frame (the visual rotation itself
+        before any output)."""
+        if self._last_out is None or self._last_visual is None:
+            return Rv
+        return self._last_out @ (self._last_visual.T @ Rv)

@@ -5,7 +5,7 @@
     camera source ──grabber thread──▶ FrameQueue (newest wins, drops counted)
                                             │
     IMU source ──IMU thread──▶ IMU buffer   ▼   processing loop (the caller's thread)
-                                  rotation estimator → LiveIndicatorStage → AlertStage → sinks
+                                  rotation estimator → [LiveFusion] → LiveIndicatorStage → AlertStage → sinks
                                             └──▶ session-log thread: SessionLog (batched commits) ◀──┘
 
 * The grabber thread reads frames with their capture timestamps and puts them in a bounded
@@ -18,6 +18,12 @@
   ``on_hop`` once per hop (status line). Session-log writes go to their own thread, which commits at least every
   ``flush_interval_s``: an fsync that takes hundreds of milliseconds (SD cards, busy disks) never stalls the
   frames.
+* With an IMU source the processing loop drains the IMU buffer before each frame (an IMU read as fast as
+  possible, e.g. ``file:imu.csv``, only up to the frame's time, and its reader waits while the buffer is full)
+  and feeds the samples and the frame's rotation estimate to a :class:`~walkmon.fusion.LiveFusion` stage: the
+  live angles (status, indicators, alerts, frames table) are the fused ones, plus pitch_abs/roll_abs. Frames
+  before the IMU's first samples or its warm-up, and during IMU gaps or after it disconnected, are
+  camera-only (counted per reason in the hop JSON, the status and the session's meta).
 """
 
 from __future__ import annotations
@@ -58,6 +64,7 @@ _log = logging.getLogger(__name__)
 DEFAULT_PIPELINE_SETTINGS = PipelineSettings()
 _GET_TIMEOUT_S = 0.2
 _JOIN_TIMEOUT_S = 3.0
+_IMU_CATCH_UP_S = 2.0
 
 
 class Estimator(Protocol):
@@ -119,6 +126,10 @@ class FrameResult:
     latency_ms: float
     estimate: Any
     truth_angles_deg: tuple[float, float, float] | None
+    #: (pitch_abs, roll_abs) from the fusion (NaN on camera-only frames); None without an IMU
+    abs_angles_deg: tuple[float, float] | None = None
+    #: "fused" or "camera:<reason>" with an IMU; "" without
+    fusion_mode: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,6 +145,8 @@ class HopReport:
     latency_p99_ms: float
     last_angles_deg: tuple[float, float, float]
     wall_s: float
+    #: the fusion's counters (LiveFusion.counters() + "mode" of the last frame); None without an IMU
+    fusion: dict[str, Any] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -154,6 +167,8 @@ class PipelineResult:
     reconnects: int
     imu_samples: int
     imu_overflows: int
+    #: the fusion's final counters; None without an IMU
+    fusion: dict[str, Any] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,6 +184,15 @@ def _angles(estimate: Any) -> tuple[float, float, float]:
 
         a = angles_deg_from_rotation(estimate.rotation)
     return tuple(float(v) for v in a)  # type: ignore[return-value]
+
+
+def _rotation(estimate: Any) -> Any:
+    R = getattr(estimate, "rotation", None)
+    if R is None:
+        from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
+
+        R = rotation_from_angles_deg(*_angles(estimate))
+    return R
 
 
 def _status_text(status: Any) -> str:
@@ -253,6 +277,7 @@ class LivePipeline:
         session_log: SessionLog,
         sinks: AlertSinks | None = None,
         imu_source: Any = None,
+        fusion: Any = None,
         settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS,
         notifier: Notifier | None = None,
         on_hop: Callable[[HopReport], None] | None = None,
@@ -260,6 +285,13 @@ class LivePipeline:
     ) -> None:
         self.camera = camera_source
         self.imu = imu_source
+        if imu_source is not None and fusion is None:
+            from walkmon.fusion import LiveFusion  # noqa: PLC0415
+
+            fusion = LiveFusion()
+        #: the camera-IMU fusion stage (:class:`walkmon.fusion.LiveFusion`), used when there is an IMU source
+        self.fusion = fusion if imu_source is not None else None
+        self._fusion_mode = ""
         self._estimator_factory = estimator_factory
         self.indicators = indicators
         self.alerts = alerts
@@ -283,6 +315,8 @@ class LivePipeline:
         self._imu_max = 20000
         self._imu_overflows = 0
         self._imu_count = 0
+        self._imu_ended = threading.Event()
+        self._imu_newest_t = -math.inf  # video clock: the newest IMU sample taken from the buffer
         self._started = False
         self.latency = LatencyHistogram()
 
@@ -359,6 +393,12 @@ class LivePipeline:
 
     def _imu_reader(self) -> None:
         try:
+            self._imu_reader_loop()
+        finally:
+            self._imu_ended.set()
+
+    def _imu_reader_loop(self) -> None:
+        try:
             while not self._stop.is_set():
                 try:
                     sample = self.imu.read()
@@ -375,6 +415,9 @@ class LivePipeline:
                 elif getattr(sample, "overflow", False):
                     self._imu_overflows += 1
                     _log.warning("IMU: %d samples dropped by the driver", getattr(sample, "dropped_samples", 0))
+                if not getattr(self.imu, "live", True):  # read as fast as possible: wait for room, drop nothing
+                    while not self._stop.is_set() and len(self._imu_buffer) >= self._imu_max:
+                        self._stop.wait(0.01)
                 with self._imu_lock:
                     for smp in samples:
                         if len(self._imu_buffer) >= self._imu_max:
@@ -405,16 +448,58 @@ class LivePipeline:
         if not stalled:
             self.notifier.watchdog()
 
-    def _drain_imu(self) -> None:
+    def _drain_imu(self, until_t_s: float | None = None) -> None:
+        """Log the buffered IMU samples and feed them to the fusion; with ``until_t_s`` (an IMU that is not
+        live) only those up to that time on the video clock, the rest stay buffered."""
+        live = getattr(self.imu, "live", True)
         with self._imu_lock:
-            samples = list(self._imu_buffer)
-            self._imu_buffer.clear()
+            if until_t_s is not None and math.isfinite(until_t_s) and self.fusion is not None:
+                self._wait_for_imu(until_t_s, live)
+            if until_t_s is None or live:
+                samples = list(self._imu_buffer)
+                self._imu_buffer.clear()
+            else:
+                offset = self.fusion.settings.fusion.time_offset_s if self.fusion is not None else 0.0
+                samples = []
+                while self._imu_buffer and float(self._imu_buffer[0].t_s) + offset <= until_t_s:
+                    samples.append(self._imu_buffer.popleft())
+        if samples and self.fusion is not None:
+            self._imu_newest_t = float(samples[-1].t_s) + self.fusion.settings.fusion.time_offset_s
         for smp in samples:
-            gyr = getattr(smp, "gyroscope_rad_s", None) or (math.nan, math.nan, math.nan)
+            gyr0 = getattr(smp, "gyroscope_rad_s", None)
+            gyr = gyr0 or (math.nan, math.nan, math.nan)
             acc = getattr(smp, "accelerometer_m_s2", None)
             if acc is not None:
                 self._writer.call(self.log.add_imu, float(smp.t_s), gyr, acc)
                 self._imu_count += 1
+                if self.fusion is not None and until_t_s is not None:
+                    self.fusion.push_imu(float(smp.t_s), gyr0, acc)
+
+    def _wait_for_imu(self, until_t_s: float, live: bool) -> None:
+        """With the IMU lock held: wait (bounded) for the IMU reader to deliver past ``until_t_s`` (video clock).
+
+        A replayed IMU (not live) must not fall behind a replayed video: up to ``_IMU_CATCH_UP_S``. A live IMU
+        that is slightly behind the frame (delivery latency, batching) gets up to ``max_gap_s`` of wall time,
+        but only while its newest sample is within ``max_gap_s`` of the frame: a silent IMU costs no waiting.
+        """
+        assert self.fusion is not None
+        offset = self.fusion.settings.fusion.time_offset_s
+        max_gap = self.fusion.settings.max_gap_s
+        deadline = time.monotonic() + (max_gap if live else _IMU_CATCH_UP_S)
+        while not self._imu_ended.is_set() and not self._stop.is_set() and time.monotonic() < deadline:
+            newest = float(self._imu_buffer[-1].t_s) + offset if self._imu_buffer else self._imu_newest_t
+            if newest >= until_t_s or (live and not until_t_s - newest <= max_gap):
+                return
+            self._imu_lock.release()
+            try:
+                time.sleep(0.0005)
+            finally:
+                self._imu_lock.acquire()
+
+    def _fusion_counters(self) -> dict[str, Any] | None:
+        if self.fusion is None:
+            return None
+        return {**self.fusion.counters(), "mode": self._fusion_mode}
 
     # -- the session ----------------------------------------------------------------------------------
     def run(self, duration_s: float | None = None) -> PipelineResult:
@@ -455,16 +540,26 @@ class LivePipeline:
                     item = self.queue.get(_GET_TIMEOUT_S)
                 except QueueClosed:
                     break
-                if self.imu is not None:
-                    self._drain_imu()
                 if item is None:
+                    if self.imu is not None and getattr(self.imu, "live", True):
+                        self._drain_imu(math.inf)
                     continue
                 frame = item.frame
+                if self.imu is not None:
+                    self._drain_imu(float(frame.t_s))
                 estimate = estimator.push(frame.image, frame.t_s)
+                abs_angles: tuple[float, float] | None = None
+                if self.fusion is not None:
+                    status = getattr(estimate, "status", None)
+                    fused = self.fusion.push_frame(frame.t_s, _rotation(estimate),
+                                                   bool(getattr(status, "is_measured", True)))
+                    angles, abs_angles = fused.angles_deg, fused.abs_angles_deg
+                    self._fusion_mode = fused.mode if fused.mode == "fused" else f"camera:{fused.reason}"
+                else:
+                    angles = _angles(estimate)
                 done = time.monotonic()
                 latency_ms = (done - item.grabbed_s) * 1000.0
                 self.latency.add(latency_ms)
-                angles = _angles(estimate)
                 last_angles = angles
                 if math.isnan(first_t):
                     first_t = frame.t_s
@@ -477,15 +572,18 @@ class LivePipeline:
                 self._writer.call(self.log.add_frame, frame.t_s, angles,
                                   int(getattr(estimate, "n_inliers", -1) or -1),
                                   str(getattr(estimate, "model", "") or ""),
-                                  _status_text(getattr(estimate, "status", None)), latency_ms)
+                                  _status_text(getattr(estimate, "status", None)), latency_ms, abs_angles,
+                                  None if self.fusion is None else self._fusion_mode == "fused")
                 if self.on_frame is not None:
-                    self.on_frame(FrameResult(frame.t_s, angles, latency_ms, estimate, frame.truth_angles_deg))
+                    self.on_frame(FrameResult(frame.t_s, angles, latency_ms, estimate, frame.truth_angles_deg,
+                                              abs_angles, self._fusion_mode))
                 ind = self.indicators.push(frame.t_s, angles)
                 if ind is None:
                     continue
                 hops += 1
                 events = self.alerts.push(ind)
-                self._writer.call(self.log.add_hop, ind)
+                fusion_counters = self._fusion_counters()
+                self._writer.call(self.log.add_hop, ind, None if fusion_counters is None else {"fusion": fusion_counters})
                 for ev in events:
                     self._writer.call(self.log.add_alert, ev)
                     alerts_raised += ev.state == "raised"
@@ -496,7 +594,7 @@ class LivePipeline:
                 if self.on_hop is not None:
                     self.on_hop(HopReport(ind, tuple(events), self.alerts.active, n_frames,
                                           self.queue.dropped, fps, self.latency.percentile(99), last_angles,
-                                          time.monotonic() - wall0))
+                                          time.monotonic() - wall0, fusion_counters))
             if not self._end_reason:
                 self._end_reason = "source ended" if self.queue.closed else "stopped"
         except BaseException as exc:
@@ -526,7 +624,8 @@ class LivePipeline:
                 self.log.close(self._end_reason, meta={
                     "log_writes_dropped": self._writer.dropped_calls,
                     "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
-                    "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows})
+                    "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows,
+                    **({} if self.fusion is None else {"fusion": self._fusion_counters()})})
             except Exception:  # a broken database must not hide why the session ended
                 _log.exception("closing the session log failed")
         if self._thread_errors:
@@ -550,4 +649,5 @@ class LivePipeline:
             reconnects=self._reconnects,
             imu_samples=self._imu_count,
             imu_overflows=self._imu_overflows,
+            fusion=self._fusion_counters(),
         )

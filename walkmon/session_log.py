@@ -8,7 +8,9 @@ Tables (angles in degrees, times ``t_s`` in seconds of capture time):
 
 * ``sessions``: id, kind (live/analyze), started_utc, ended_utc, end_reason, camera, imu, config_json,
   versions_json, meta_json, n_frames, n_dropped
-* ``frames``: session_id, t_s, pitch, yaw, roll, n_inliers, model, status, latency_ms
+* ``frames``: session_id, t_s, pitch, yaw, roll, n_inliers, model, status, latency_ms, pitch_abs, roll_abs,
+  fused (schema 2: the gravity-referenced angles and 1/0 fused/camera-only when an IMU was fused, NULL
+  otherwise; databases of schema 1 get the columns added, NULL in their old rows, when opened)
 * ``imu``: session_id, t_s, gx, gy, gz, ax, ay, az
 * ``hops``: session_id, t_s, walking, cadence_spm, swing/inclination/posture per axis, step_asymmetry,
   label, json
@@ -49,7 +51,7 @@ __all__ = [
 _log = logging.getLogger(__name__)
 
 DB_FILENAME = "walkmon.sqlite"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS sessions (
@@ -68,7 +70,7 @@ CREATE TABLE IF NOT EXISTS sessions (
 );
 CREATE TABLE IF NOT EXISTS frames (
     session_id INTEGER NOT NULL, t_s REAL NOT NULL, pitch REAL, yaw REAL, roll REAL,
-    n_inliers INTEGER, model TEXT, status TEXT, latency_ms REAL
+    n_inliers INTEGER, model TEXT, status TEXT, latency_ms REAL, pitch_abs REAL, roll_abs REAL, fused INTEGER
 );
 CREATE TABLE IF NOT EXISTS imu (
     session_id INTEGER NOT NULL, t_s REAL NOT NULL, gx REAL, gy REAL, gz REAL, ax REAL, ay REAL, az REAL
@@ -95,7 +97,8 @@ CREATE INDEX IF NOT EXISTS hops_session ON hops(session_id, t_s);
 
 #: Columns of each per-session table, in order (without session_id).
 TABLE_COLUMNS: dict[str, tuple[str, ...]] = {
-    "frames": ("t_s", "pitch", "yaw", "roll", "n_inliers", "model", "status", "latency_ms"),
+    "frames": ("t_s", "pitch", "yaw", "roll", "n_inliers", "model", "status", "latency_ms", "pitch_abs", "roll_abs",
+               "fused"),
     "imu": ("t_s", "gx", "gy", "gz", "ax", "ay", "az"),
     "hops": (
         "t_s", "walking", "cadence_spm", "pitch_swing", "yaw_swing", "roll_swing", "pitch_inclination",
@@ -150,12 +153,26 @@ def open_database(data_dir: str | Path, *, create: bool = True) -> sqlite3.Conne
         conn.execute("PRAGMA journal_mode=WAL")
         conn.execute("PRAGMA synchronous=FULL")
         conn.executescript(_SCHEMA)
+        _migrate(conn)
         conn.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
         conn.commit()
     except sqlite3.DatabaseError as exc:
         msg = f"{path}: not a usable walkmon session database ({exc})"
         raise InvalidInputError(msg) from exc
     return conn
+
+
+#: Columns added after schema 1: (table, column, SQL type); all nullable, so old rows read as NULL.
+_ADDED_COLUMNS = (("frames", "pitch_abs", "REAL"), ("frames", "roll_abs", "REAL"), ("frames", "fused", "INTEGER"))
+
+
+def _migrate(conn: sqlite3.Connection) -> None:
+    """Bring an older database to :data:`SCHEMA_VERSION` (add the nullable columns it lacks)."""
+    for table, column, sql_type in _ADDED_COLUMNS:
+        have = {row[1] for row in conn.execute(f"PRAGMA table_info({table})")}
+        if column not in have:
+            conn.execute(f"ALTER TABLE {table} ADD COLUMN {column} {sql_type}")
+            _log.info("session database: added %s.%s (schema %d)", table, column, SCHEMA_VERSION)
 
 
 def _num(v: object) -> object:
@@ -206,21 +223,27 @@ class SessionLog:
 
     # -- buffering --------------------------------------------------------------------------------------
     def add_frame(self, t_s: float, angles_deg: Sequence[float], n_inliers: int = -1, model: str = "",
-                  status: str = "", latency_ms: float = math.nan) -> None:
+                  status: str = "", latency_ms: float = math.nan,
+                  abs_angles_deg: Sequence[float] | None = None, fused: bool | None = None) -> None:
+        """One frame; ``abs_angles_deg`` (pitch_abs, roll_abs) and ``fused`` only when an IMU is fused."""
         self.n_frames += 1
         if self.log_frames:
             p, y, r = (float(v) for v in angles_deg)
+            pa, ra = (None, None) if abs_angles_deg is None else (_num(float(v)) for v in abs_angles_deg)
             self._buffers["frames"].append(
                 (self.session_id, float(t_s), _num(p), _num(y), _num(r), int(n_inliers), model, status,
-                 _num(float(latency_ms))))
+                 _num(float(latency_ms)), pa, ra, None if fused is None else int(bool(fused))))
 
     def add_imu(self, t_s: float, gyroscope_rad_s: Sequence[float], accelerometer_ms2: Sequence[float]) -> None:
         self._buffers["imu"].append((self.session_id, float(t_s), *map(float, gyroscope_rad_s),
                                      *map(float, accelerometer_ms2)))
 
-    def add_hop(self, ind: object) -> None:
-        """One :class:`~walkmon.live_indicators.LiveIndicators`."""
+    def add_hop(self, ind: object, extra: dict[str, object] | None = None) -> None:
+        """One :class:`~walkmon.live_indicators.LiveIndicators`; ``extra`` is merged into its JSON (e.g. the
+        fusion's counters under ``"fusion"``)."""
         d = ind.to_dict()  # type: ignore[attr-defined]
+        if extra:
+            d = {**d, **extra}
         sw, inc, pos = ind.swing_deg, ind.inclination_deg, ind.posture_deg  # type: ignore[attr-defined]
         self._buffers["hops"].append(
             (self.session_id, float(ind.t_s), int(bool(ind.walking)), _num(ind.cadence_spm),  # type: ignore[attr-defined]

@@ -46,8 +46,22 @@ def status_line(h: Any) -> str:
 
     p, y, r = ind.posture_deg
     alerts = ",".join(h.active_alerts) or "-"
+    fusion = getattr(h, "fusion", None)
+    imu = ""
+    if fusion:
+        cam = sum(fusion["frames_camera_only"].values())
+        imu = f" imu={fusion['mode'] or '-'} (fused {fusion['frames_fused']}, camera-only {cam})"
     return (f"t={ind.t_s:7.1f}s {f(h.fps, '4.1f')}fps drop={h.dropped:<4d} cad={f(ind.cadence_spm, '5.1f')}spm "
-            f"pitch={f(p, '+5.1f')} yaw={f(y, '+5.1f')} roll={f(r, '+5.1f')} {ind.label:<18s} alert={alerts}")
+            f"pitch={f(p, '+5.1f')} yaw={f(y, '+5.1f')} roll={f(r, '+5.1f')} {ind.label:<18s} alert={alerts}{imu}")
+
+
+def live_fusion_settings(imu: Any) -> Any:
+    """:class:`walkmon.fusion.LiveFusionSettings` from the config's ``[imu]`` section."""
+    from walkmon.fusion import FusionSettings, LiveFusionSettings  # noqa: PLC0415
+
+    return LiveFusionSettings(
+        fusion=FusionSettings(camera_from_imu=imu.camera_from_imu, time_offset_s=imu.time_offset_s),
+        warmup_s=imu.warmup_s, max_gap_s=imu.max_gap_s, max_lag_s=imu.max_lag_s)
 
 
 class _Status:
@@ -169,6 +183,11 @@ def _run(args: argparse.Namespace) -> int:
         raise WalkmonError(msg)
     camera = open_camera(cfg.camera.url)
     imu = open_imu(cfg.imu.url) if cfg.imu.url else None
+    fusion = None
+    if imu is not None:
+        from walkmon.fusion import LiveFusion  # noqa: PLC0415
+
+        fusion = LiveFusion(live_fusion_settings(cfg.imu))
     calib = read_camera_yaml(cfg.camera.calib) if cfg.camera.calib else None
     data_dir = Path(cfg.session.data_dir).expanduser() if cfg.session.data_dir else default_data_dir()
     stream = sys.stderr
@@ -183,6 +202,7 @@ def _run(args: argparse.Namespace) -> int:
         session_log=log,
         sinks=AlertSinks(cfg.sinks, stream=stream if cfg.sinks.terminal else None),
         imu_source=imu,
+        fusion=fusion,
         settings=cfg.pipeline,
         notifier=Notifier(),
         on_hop=status,
@@ -197,4 +217,9 @@ def _run(args: argparse.Namespace) -> int:
         f"session {res.session_id}: {res.duration_s:.1f} s, {res.frames} frames, {res.dropped} dropped, "
         f"{res.hops} hops, {res.alerts_raised} alerts, latency p99 {res.latency_p99_ms:.0f} ms "
         f"({res.end_reason}) -> {log.path}\n")
+    if res.fusion is not None:
+        cam = res.fusion["frames_camera_only"]
+        sys.stdout.write(f"IMU fusion: {res.fusion['frames_fused']} frames fused, camera-only: {cam['no_imu']} before "
+                         f"any IMU sample, {cam['warmup']} in the IMU warm-up, {cam['imu_gap']} in IMU gaps; "
+                         f"{res.fusion['filter_restarts']} filter restarts, {res.imu_samples} IMU samples\n")
     return 0
