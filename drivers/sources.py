@@ -3,7 +3,9 @@
 Cameras (:func:`open_camera`)::
 
     v4l2:/dev/video0?width=640&height=480&fps=30     USB/CSI camera through OpenCV CAP_V4L2
-    depthai:[DEVICE_ID]?width=640&height=480&fps=30&timeout_s=3    Luxonis OAK (pip install walkmon[depthai])
+    depthai:[DEVICE_ID]?width=640&height=480&fps=30&timeout_s=3&imu=0&imu_rate_hz=200
+                                                       Luxonis OAK (pip install walkmon[depthai]); imu=1
+                                                       also reads its on-board IMU (see depthai_camera)
     file:walk.mp4?realtime=1&loop=0                    a video replayed at its own frame rate
     sim:normal:10,bend:10?seed=0&width=640&height=480&fps=30&realtime=1   the simulator, live
 
@@ -11,6 +13,8 @@ IMUs (:func:`open_imu`)::
 
     serial:/dev/ttyACM0?baud=115200&...                the serial IMU driver (walkmon.drivers.serial_imu)
     file:imu.csv?realtime=0                            a recorded imu.csv
+    depthai:?rate_hz=200                               the OAK's on-board IMU: needs the depthai: camera,
+                                                       whose imu=1 option it turns on (one device)
 
 The factory only parses and constructs: nothing is opened (and no hardware probed) until the pipeline calls
 ``open()``. Unknown schemes and unknown or malformed options raise ConfigError.
@@ -57,13 +61,14 @@ def _pos_float(text: str) -> float:
 #: scheme -> option -> parser.
 _CAMERA_OPTIONS: dict[str, dict[str, Callable[[str], Any]]] = {
     "v4l2": {"width": _pos_int, "height": _pos_int, "fps": _pos_float},
-    "depthai": {"width": _pos_int, "height": _pos_int, "fps": _pos_float, "timeout_s": _pos_float},
+    "depthai": {"width": _pos_int, "height": _pos_int, "fps": _pos_float, "timeout_s": _pos_float, "imu": _bool,
+                "imu_rate_hz": _pos_float},
     "file": {"realtime": _bool, "loop": _bool, "fps": _pos_float},
     "sim": {"seed": int, "width": _pos_int, "height": _pos_int, "fps": _pos_float, "realtime": _bool,
             "seconds": _pos_float, "distortion": _bool},
 }
 CAMERA_SCHEMES = tuple(_CAMERA_OPTIONS)
-IMU_SCHEMES = ("serial", "file")
+IMU_SCHEMES = ("serial", "file", "depthai")
 
 
 def parse_source_url(url: str, options: dict[str, dict[str, Callable[[str], Any]]]) -> tuple[str, str, dict[str, Any]]:
@@ -137,8 +142,9 @@ def open_camera(url: str):  # noqa: ANN201 - a CameraSource
     return SimCamera(url, target, **opts)
 
 
-def open_imu(url: str):  # noqa: ANN201 - an IMU source
-    """A (not yet opened) IMU source for ``url``: ``serial:`` (serial IMU driver) or ``file:imu.csv``."""
+def open_imu(url: str, camera: Any = None):  # noqa: ANN201 - an IMU source
+    """A (not yet opened) IMU source for ``url``: ``serial:`` (serial IMU driver), ``file:imu.csv``, or
+    ``depthai:`` (the on-board IMU of ``camera``, which must be a ``depthai:`` camera source)."""
     if isinstance(url, str) and url.lower().startswith("serial:"):
         try:
             serial_imu = importlib.import_module("walkmon.drivers.serial_imu")
@@ -146,7 +152,15 @@ def open_imu(url: str):  # noqa: ANN201 - an IMU source
             msg = f"source {url!r}: the serial IMU driver is not available ({exc})"
             raise ConfigError(msg) from exc
         return _SerialImuSource(url, serial_imu.SerialImu(serial_imu.settings_from_url(url)))
-    scheme, target, opts = parse_source_url(url, {"serial": {}, "file": {"realtime": _bool}})
+    scheme, target, opts = parse_source_url(url, {"serial": {}, "file": {"realtime": _bool},
+                                                  "depthai": {"rate_hz": _pos_float}})
+    if scheme == "depthai":
+        if target or camera is None or not hasattr(camera, "imu_source"):
+            msg = (f"source {url!r}: the OAK's IMU is read through its camera: use it with a depthai: camera "
+                   f"(or add imu=1 to the camera URL)")
+            raise ConfigError(msg)
+        camera.enable_imu(opts.get("rate_hz"))
+        return camera.imu_source()
     from walkmon.drivers.file_imu import FileImu  # noqa: PLC0415
 
     if not target:

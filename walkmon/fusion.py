@@ -523,6 +523,7 @@ class LiveFusion:
         self._last_out: NDArray[np.float64] | None = None
         self._last_visual: NDArray[np.float64] | None = None
         self._fresh = False
+        self._last_frame_t: float | None = None
         self.n_fused = 0
         self.n_camera_only: dict[str, int] = {"no_imu": 0, "warmup": 0, "imu_gap": 0}
         self.n_restarts = 0
@@ -538,6 +539,8 @@ class LiveFusion:
     # -- input ------------------------------------------------------------------------------------------
     def push_imu(self, t_s: float, gyroscope_rad_s: ArrayLike | None, accelerometer_m_s2: ArrayLike) -> None:
         tv = float(t_s) + self.settings.fusion.time_offset_s
+        if self._last_imu_t is not None and tv < self._last_imu_t - self.settings.max_gap_s:
+            self._clock_restarted("IMU")
         if gyroscope_rad_s is None or not np.isfinite(tv) or (self._last_imu_t is not None and tv <= self._last_imu_t):
             self.n_imu_dropped += 1
             return
@@ -551,6 +554,15 @@ class LiveFusion:
             self._pending.popleft()
             self.n_imu_dropped += 1
         self._pending.append((tv, g, a))
+
+    def _clock_restarted(self, which: str) -> None:
+        """A device clock that jumped back (an OAK re-opened after a reconnection): forget the samples and
+        restart the filter on the new clock; the output stays continuous."""
+        _log.warning("%s clock went back: fusion restarts on the new clock", which)
+        self._pending.clear()
+        self._warmup = []
+        self._last_imu_t = self._filter_t = None
+        self._needs_restart = self._fusion is not None
 
     def _feed(self, tv: float, g: NDArray[np.float64], a: NDArray[np.float64]) -> None:
         """One sample (video clock) into the warm-up buffer or the running filter."""
@@ -612,6 +624,9 @@ class LiveFusion:
     # -- per frame --------------------------------------------------------------------------------------
     def push_frame(self, t_s: float, visual_rotation: ArrayLike, ok: bool = True) -> LiveFusedFrame:
         t_s = float(t_s)
+        if self._last_frame_t is not None and t_s < self._last_frame_t - self.settings.max_gap_s:
+            self._clock_restarted("camera")
+        self._last_frame_t = t_s
         while self._pending and self._pending[0][0] <= t_s:
             self._feed(*self._pending.popleft())
         Rv = np.asarray(visual_rotation, dtype=float)

@@ -25,7 +25,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--camera", metavar="SOURCE",
                    help="camera source, e.g. v4l2:/dev/video0?width=640&height=480&fps=30, depthai:, "
                         "file:walk.mp4?realtime=1, sim:normal:10,bend:10 (default: from the config)")
-    p.add_argument("--imu", metavar="SOURCE", help="IMU source, e.g. serial:/dev/ttyACM0?baud=115200 or file:imu.csv")
+    p.add_argument("--imu", metavar="SOURCE", help="IMU source, e.g. serial:/dev/ttyACM0?baud=115200, file:imu.csv, "
+                   "or depthai: (the OAK camera's own IMU; same as imu=1 in the depthai: camera URL); "
+                   "with an IMU the live angles are camera-IMU fused")
     p.add_argument("--config", metavar="TOML", help="configuration file (see deploy/walkmon.toml)")
     p.add_argument("--calib", metavar="YAML", help="camera intrinsics (ROS camera_info YAML)")
     p.add_argument("--method", choices=("fast", "paper"), help="rotation estimator method (default: config, fast)")
@@ -182,7 +184,12 @@ def _run(args: argparse.Namespace) -> int:
         msg = f"--duration must be > 0, got {args.duration}"
         raise WalkmonError(msg)
     camera = open_camera(cfg.camera.url)
-    imu = open_imu(cfg.imu.url) if cfg.imu.url else None
+    if cfg.imu.url:
+        imu = open_imu(cfg.imu.url, camera=camera)
+    elif getattr(camera, "imu", False) and hasattr(camera, "imu_source"):  # depthai:?imu=1
+        imu = camera.imu_source()
+    else:
+        imu = None
     fusion = None
     if imu is not None:
         from walkmon.fusion import LiveFusion  # noqa: PLC0415
@@ -192,7 +199,7 @@ def _run(args: argparse.Namespace) -> int:
     data_dir = Path(cfg.session.data_dir).expanduser() if cfg.session.data_dir else default_data_dir()
     stream = sys.stderr
     status = _Status(args.status, stream)
-    log = SessionLog(data_dir, kind="live", camera=cfg.camera.url, imu=cfg.imu.url, config=config_to_dict(cfg),
+    log = SessionLog(data_dir, kind="live", camera=cfg.camera.url, imu=cfg.imu.url or (imu.url if imu else ""), config=config_to_dict(cfg),
                      flush_interval_s=cfg.session.flush_interval_s, log_frames=cfg.session.log_frames)
     pipeline = LivePipeline(
         camera,
