@@ -295,3 +295,20 @@ def test_imu_config_keys() -> None:
                 {"time_offset": 0.1}):
         with pytest.raises(ConfigError):
             config_from_dict({"imu": bad})
+
+
+def test_a_device_clock_that_jumps_back_restarts_the_filter_without_a_jump_in_the_output() -> None:
+    stage = LiveFusion(LiveFusionSettings(warmup_s=0.5))
+    frames = np.arange(0, 3.0, 1 / 30)
+    out = _run_stage(stage, np.arange(0, 3.1, 0.005), frames)
+    assert out[-1].mode == "fused"
+    # the OAK re-opened: both clocks restart at 0 while the camera keeps moving (yaw continues from 3 s)
+    yaw0 = float(_yaw_deg(3.0))
+    i, imu_t = 0, np.arange(0, 1.6, 0.005)
+    for tf in np.arange(0, 1.5, 1 / 30):
+        while i < len(imu_t) and imu_t[i] <= tf + 0.02:
+            stage.push_imu(float(imu_t[i]), (0.0, np.radians(RATE_DPS), 0.0), (0.0, -9.81, 0.0))
+            i += 1
+        o = stage.push_frame(float(tf), rotation_from_angles_deg(0.0, yaw0 + RATE_DPS * tf, 0.0), True)
+        assert o.angles_deg[1] == pytest.approx(yaw0 + RATE_DPS * tf, abs=0.1)
+    assert o.mode == "fused" and stage.counters()["filter_restarts"] == 1
