@@ -515,11 +515,13 @@ class LivePipeline:
         first_t = last_t = math.nan
         self._writer.start()
         try:
-            self.camera.open()
-            estimator = self._estimator_factory(self.camera)
             if self.imu is not None:
+                # opened first: a replayed IMU (file:...?realtime=1) then starts its clock before the camera's
+                # and is never behind the frames (the loop would wait for it, adding latency)
                 self.imu.open()
                 threads.append(threading.Thread(target=self._imu_reader, name="walkmon-imu", daemon=True))
+            self.camera.open()
+            estimator = self._estimator_factory(self.camera)
             threads.insert(0, threading.Thread(target=self._grabber, name="walkmon-grabber", daemon=True))
             for th in threads:
                 th.start()
