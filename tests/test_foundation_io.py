@@ -150,3 +150,23 @@ def test_chessboard_corners_land_on_the_true_corners() -> None:
     err = np.concatenate(errors)
     assert np.median(err) < 0.15
     assert err.max() < 0.6
+
+
+def test_drivers_import_as_walkmon_drivers_from_a_checkout_and_never_as_drivers() -> None:
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    code = (
+        "import importlib.util, walkmon, walkmon.drivers.sources; "
+        "print(walkmon.drivers.__name__, walkmon.drivers.sources.__name__)"
+    )
+    # From the repository root, `python -c` puts the checkout first on sys.path: drivers/ must still be
+    # walkmon.drivers there, as it is once installed.
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=60, check=True)
+    assert out.stdout.split() == ["walkmon.drivers", "walkmon.drivers.sources"]
+    # Away from the checkout nothing named plain `drivers` is importable (the installer maps it under walkmon).
+    code = "import importlib.util; print(importlib.util.find_spec('drivers') is None)"
+    out = subprocess.run([sys.executable, "-c", code], cwd="/", capture_output=True, text=True, timeout=60, check=True)
+    assert out.stdout.strip() == "True"

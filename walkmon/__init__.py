@@ -7,6 +7,12 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
+from pathlib import Path as _Path
+
+from walkmon._checkout import map_checkout_drivers as _map_checkout_drivers
+
+_map_checkout_drivers(_Path(__file__).resolve().parent)  # `drivers/` is walkmon.drivers in a checkout too
+
 from walkmon.calibration import CameraModel, default_camera, read_camera_yaml, write_camera_yaml
 from walkmon.consts import (
     AXES,
