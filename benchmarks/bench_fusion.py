@@ -11,7 +11,7 @@ the walk-axis pairs where the fusion beats each input. Also the gravity-referenc
 IMU-camera extrinsics/time-offset estimate (truth: identity, 0 s) with its residual, and VQF on the same
 imu.csv (online, offline, and online with a 0.5 s rest detection) with its pitch error at the start and the
 end of walking (the diagnosis of its ~1-2 deg pitch error on walks).
-(b) BROAD (Laidig et al. 2021, CC BY 4.0, /work/shared/data/broad or --broad): inclination error (angle between
+(b) BROAD (Laidig et al. 2021, CC BY 4.0, ../shared/data/broad or --broad): inclination error (angle between
 estimated and optical gravity direction in the sensor frame) RMSE over the ``movement`` samples, for walkmon's
 ESKF (walking defaults; the hand-held preset, causal, which ``--imu-filter eskf-handheld`` uses; the same with
 the offline RTS smoother), VQF (online and offline) and imufusion (Fusion AHRS, default settings).
@@ -40,7 +40,8 @@ from walkmon.imu_extrinsics import estimate_extrinsics
 from walkmon.tables import read_table
 
 RESULTS = Path(__file__).resolve().parent / "results"
-BROAD_DEFAULT = Path(os.environ.get("WALKMON_BROAD", "/work/shared/data/broad"))
+#: ../shared/data/broad beside the checkout (as CI and the developers' machines lay it out), or WALKMON_BROAD.
+BROAD_DEFAULT = Path(os.environ.get("WALKMON_BROAD", Path(__file__).resolve().parents[2] / "shared" / "data" / "broad"))
 TARGET_PR_DEG, TARGET_YAW_DEG = 0.3, 0.5
 #: For the "no still start" rows: the recording is cut this long after the start (past the 2 s standing).
 STANDING_CUT_S = 2.5

@@ -22,7 +22,6 @@ from walkmon.imu_extrinsics import estimate_extrinsics
 from walkmon.simulate.gait import GaitModel
 from walkmon.simulate.imu import simulate_imu
 
-BROAD = Path("/work/shared/data/broad/07_undisturbed_fast_rotation_B.hdf5")
 FPS = 30.0
 
 
@@ -174,13 +173,11 @@ def test_settings_are_validated() -> None:
         fuse_recording(np.arange(5.0), np.zeros((4, 3)), np.zeros((5, 3)), [0.0])
 
 
-def test_broad_real_trial_inclination_within_bounds() -> None:
+def test_broad_real_trial_inclination_within_bounds(broad_trial_7: Path) -> None:
     """A real IMU (BROAD trial 7, fast rotations, optical truth; Laidig et al. 2021, CC BY 4.0): the first 45 s
     (18 s of movement). Bound set with margin over the measured ESKF figure (benchmarks/results/fusion.md)."""
     h5py = pytest.importorskip("h5py")
-    if not BROAD.is_file():
-        pytest.skip("BROAD data not present")
-    with h5py.File(BROAD, "r") as f:
+    with h5py.File(broad_trial_7, "r") as f:
         rate = float(f.attrs["sampling_rate"])
         n = int(45 * rate)
         gyr, acc = np.asarray(f["imu_gyr"][:n]), np.asarray(f["imu_acc"][:n])

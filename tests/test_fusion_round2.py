@@ -24,7 +24,6 @@ from walkmon.imu_attitude import (
 from walkmon.simulate.gait import GaitModel
 from walkmon.simulate.imu import simulate_imu
 
-BROAD = Path("/work/shared/data/broad/07_undisturbed_fast_rotation_B.hdf5")
 FPS = 30.0
 
 
@@ -147,16 +146,14 @@ def test_offline_smoother_fusion_within_targets(walk) -> None:  # noqa: ANN001
     assert track.visual_used.mean() > 0.8
 
 
-def test_handheld_preset_on_real_fast_rotations() -> None:
+def test_handheld_preset_on_real_fast_rotations(broad_trial_7: Path) -> None:
     """BROAD trial 7 (fast hand-held rotations up to ~1400 deg/s, optical truth; Laidig et al. 2021, CC BY 4.0),
     first 45 s: the hand-held preset (interval-mean gyro samples, gravity low-passed in the gyro frame) measured
     1.32 deg inclination RMSE, as vqf online (1.33); the walking defaults 2.27. Bounds with margin."""
     h5py = pytest.importorskip("h5py")
-    if not BROAD.is_file():
-        pytest.skip("BROAD data not present")
     from walkmon.imu_analysis import rotation_matrices_from_quaternions_wxyz
 
-    with h5py.File(BROAD, "r") as f:
+    with h5py.File(broad_trial_7, "r") as f:
         rate = float(f.attrs["sampling_rate"])
         n = int(45 * rate)
         gyr, acc = np.asarray(f["imu_gyr"][:n]), np.asarray(f["imu_acc"][:n])
