@@ -161,10 +161,16 @@ class SessionSettings:
     flush_interval_s: float = 0.5
     #: Store per-frame angles (False keeps only hops, alerts and calibrations).
     log_frames: bool = True
+    #: When ``walkmon live`` starts, delete ended sessions that started more than this many days ago (as
+    #: ``walkmon sessions prune --older-than``); 0: keep everything.
+    retention_days: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0 < self.flush_interval_s <= 1.0:
             msg = f"session.flush_interval_s must be in (0, 1], got {self.flush_interval_s}"
+            raise ValueError(msg)
+        if not self.retention_days >= 0:
+            msg = f"session.retention_days must be >= 0 (0: keep everything), got {self.retention_days}"
             raise ValueError(msg)
 
 

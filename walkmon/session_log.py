@@ -40,8 +40,10 @@ __all__ = [
     "TABLE_COLUMNS",
     "SessionSummary",
     "default_data_dir",
+    "delete_sessions",
     "list_sessions",
     "open_database",
+    "prune_sessions",
     "read_session_table",
     "record_offline_session",
     "session_record",
@@ -395,3 +397,91 @@ def record_offline_session(
         log.add_frame(t, a, n_inl, model, status)
     log.close("complete")
     return log.session_id
+
+
+# ---------------------------------------------------------------------------------------------- retention
+
+
+def _delete_rows(conn: sqlite3.Connection, ids: Sequence[int]) -> None:
+    """Delete sessions ``ids`` and their rows in every table, in one transaction."""
+    params = [(i,) for i in ids]
+    with conn:
+        for table in TABLE_COLUMNS:
+            conn.executemany(f"DELETE FROM {table} WHERE session_id=?", params)
+        conn.executemany("DELETE FROM sessions WHERE id=?", params)
+
+
+def _vacuum(conn: sqlite3.Connection) -> None:
+    """Rebuild the file without the freed pages and truncate the WAL, so the file on disk shrinks."""
+    conn.execute("VACUUM")
+    conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+
+
+def delete_sessions(data_dir: str | Path, ids: Iterable[int]) -> list[int]:
+    """Delete the sessions ``ids`` and all their rows (one transaction), then VACUUM; the ids deleted.
+
+    Any session may be deleted, also one without an end time (cut off by a crash, or still running: a live
+    writer would then keep adding rows under a session that no longer exists). An id not in the database
+    raises :class:`~walkmon.errors.InvalidInputError` and deletes nothing.
+    """
+    wanted = sorted({int(i) for i in ids})
+    conn = open_database(data_dir, create=False)
+    try:
+        have = {r[0] for r in conn.execute("SELECT id FROM sessions")}
+        missing = [i for i in wanted if i not in have]
+        if missing:
+            msg = (f"no session {', '.join(map(str, missing))} in the database (see 'walkmon sessions list'); "
+                   "nothing deleted")
+            raise InvalidInputError(msg)
+        if wanted:
+            _delete_rows(conn, wanted)
+            _vacuum(conn)
+            _log.info("deleted session(s) %s from %s", ", ".join(map(str, wanted)), _db_path(data_dir))
+    finally:
+        conn.close()
+    return wanted
+
+
+def prune_sessions(
+    data_dir: str | Path,
+    older_than_days: float,
+    keep: int | None = None,
+    dry_run: bool = False,
+    *,
+    now_utc: _dt.datetime | None = None,
+) -> list[int]:
+    """Delete the ended sessions that started more than ``older_than_days`` ago; the ids deleted, oldest first.
+
+    A session without an end time (running, or cut off) is never deleted. With ``keep``, the ``keep`` newest
+    ended sessions (by start time) are kept whatever their age. ``dry_run`` deletes nothing and returns what
+    would be deleted. After deleting, VACUUM shrinks the file. ``now_utc`` (default: the clock) is for tests.
+    """
+    if not (math.isfinite(older_than_days) and older_than_days >= 0):
+        msg = f"older than DAYS must be a number >= 0, got {older_than_days}"
+        raise InvalidInputError(msg)
+    if keep is not None and keep < 0:
+        msg = f"keep must be >= 0, got {keep}"
+        raise InvalidInputError(msg)
+    now = now_utc or _dt.datetime.now(_dt.UTC)
+    cutoff = now - _dt.timedelta(days=older_than_days)
+    conn = open_database(data_dir, create=False)
+    try:
+        ended = []  # (started, id), ended sessions only
+        for sid, started in conn.execute("SELECT id, started_utc FROM sessions WHERE ended_utc IS NOT NULL"):
+            try:
+                t = _dt.datetime.fromisoformat(started)
+            except (TypeError, ValueError):
+                _log.warning("session %d: unreadable start time %r, not pruned", sid, started)
+                continue
+            ended.append((t if t.tzinfo else t.replace(tzinfo=_dt.UTC), sid))
+        ended.sort()
+        kept_newest = {sid for _, sid in ended[max(0, len(ended) - keep):]} if keep else set()
+        doomed = [sid for t, sid in ended if t < cutoff and sid not in kept_newest]
+        if doomed and not dry_run:
+            _delete_rows(conn, doomed)
+            _vacuum(conn)
+            _log.info("pruned %d session(s) started before %s: %s", len(doomed), cutoff.isoformat(timespec="seconds"),
+                      ", ".join(map(str, doomed)))
+    finally:
+        conn.close()
+    return doomed

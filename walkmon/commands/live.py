@@ -161,6 +161,22 @@ def run(args: argparse.Namespace) -> int:
         raise WalkmonError(msg) from exc
 
 
+def _prune_old_sessions(db_path: Path, retention_days: float) -> None:
+    """``[session] retention_days``: delete older ended sessions as this one starts (it has no end time, so it
+    is never pruned); a failure is logged and the session goes on (monitoring matters more than the disk)."""
+    import sqlite3  # noqa: PLC0415
+
+    from walkmon.session_log import prune_sessions  # noqa: PLC0415
+
+    try:
+        ids = prune_sessions(db_path, retention_days)
+    except (sqlite3.Error, WalkmonError) as exc:
+        _log.warning("session retention: pruning sessions older than %g days failed: %s", retention_days, exc)
+        return
+    _log.info("session retention: deleted %d ended session(s) older than %g days%s", len(ids), retention_days,
+              f" ({', '.join(map(str, ids))})" if ids else "")
+
+
 def _run(args: argparse.Namespace) -> int:
     from walkmon.alert_sinks import AlertSinks  # noqa: PLC0415
     from walkmon.alerts import AlertStage  # noqa: PLC0415
@@ -201,6 +217,8 @@ def _run(args: argparse.Namespace) -> int:
     status = _Status(args.status, stream)
     log = SessionLog(data_dir, kind="live", camera=cfg.camera.url, imu=cfg.imu.url or (imu.url if imu else ""), config=config_to_dict(cfg),
                      flush_interval_s=cfg.session.flush_interval_s, log_frames=cfg.session.log_frames)
+    if cfg.session.retention_days > 0:
+        _prune_old_sessions(log.path, cfg.session.retention_days)
     pipeline = LivePipeline(
         camera,
         lambda src: CameraAwareEstimator(src, calib, cfg.rotation.method, cfg.camera.hfov_deg),

@@ -1,4 +1,4 @@
-"""``walkmon sessions list|export``: the session history in the data directory's database."""
+"""``walkmon sessions list|export|delete|prune``: the session history in the data directory's database."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from typing import Any
 from walkmon.errors import ConfigError
 
 NAME = "sessions"
-HELP = "list logged sessions, or export one as CSV or Parquet"
+HELP = "list logged sessions, export one as CSV or Parquet, delete or prune old ones"
 
 #: Exported file stem per table (frames export as angles.* so 'walkmon indicators' reads them directly).
 EXPORT_NAMES = {"frames": "angles", "hops": "hops", "alerts": "alerts", "imu": "imu", "calibrations": "calibrations"}
@@ -35,6 +35,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     ep.add_argument("--format", choices=("csv", "parquet"), default="csv")
     ep.add_argument("--out", required=True, metavar="DIR")
     _data_dir_arg(ep)
+    dp = sub.add_parser("delete", help="delete sessions and all their rows, then shrink the file")
+    dp.add_argument("session_ids", type=int, nargs="+", metavar="ID")
+    _data_dir_arg(dp)
+    pp = sub.add_parser("prune", help="delete ended sessions older than DAYS (never a running one)")
+    pp.add_argument("--older-than", type=float, required=True, metavar="DAYS",
+                    help="delete ended sessions that started more than DAYS ago")
+    pp.add_argument("--keep", type=int, metavar="N", help="always keep the newest N ended sessions")
+    pp.add_argument("--dry-run", action="store_true", help="print what would be deleted, delete nothing")
+    _data_dir_arg(pp)
 
 
 def data_dir_of(args: argparse.Namespace) -> Path:
@@ -109,5 +118,40 @@ def _export(args: argparse.Namespace) -> int:
     return 0
 
 
+def _describe(sessions: dict[int, Any], ids: list[int]) -> str:
+    return "\n".join(
+        f"  {i:>4}  {sessions[i].kind:<7} started {sessions[i].started_utc[:19]}  {sessions[i].n_frames} frames  "
+        f"{sessions[i].camera}" for i in ids)
+
+
+def _delete(args: argparse.Namespace) -> int:
+    from walkmon.session_log import delete_sessions, list_sessions  # noqa: PLC0415
+
+    data_dir = data_dir_of(args)
+    before = {s.id: s for s in list_sessions(data_dir)}
+    deleted = delete_sessions(data_dir, args.session_ids)
+    sys.stdout.write(f"deleted {len(deleted)} session(s):\n{_describe(before, deleted)}\n")
+    return 0
+
+
+def _prune(args: argparse.Namespace) -> int:
+    from walkmon.session_log import list_sessions, prune_sessions  # noqa: PLC0415
+
+    if args.keep is not None and args.keep < 0:
+        msg = f"--keep must be >= 0, got {args.keep}"
+        raise ConfigError(msg)
+    data_dir = data_dir_of(args)
+    before = {s.id: s for s in list_sessions(data_dir)}
+    ids = prune_sessions(data_dir, args.older_than, keep=args.keep, dry_run=args.dry_run)
+    verb = "would delete" if args.dry_run else "deleted"
+    if not ids:
+        sys.stdout.write(f"{verb} no session (none ended more than {args.older_than:g} days ago"
+                         f"{'' if args.keep is None else f' beyond the newest {args.keep}'})\n")
+    else:
+        sys.stdout.write(f"{verb} {len(ids)} session(s):\n{_describe(before, ids)}\n")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
-    return _export(args) if args.sessions_command == "export" else _list(args)
+    actions = {"export": _export, "delete": _delete, "prune": _prune, "list": _list}
+    return actions[args.sessions_command](args)
