@@ -42,6 +42,9 @@ def test_imu_only_analysis_writes_angles_close_to_truth(session: Path, tmp_path:
     info = json.loads((out / "imu.json").read_text())
     assert info["mode"] == "imu_only" and info["imu_filter"] == "eskf"
     assert (out / "indicators.json").is_file() and (out / "report.html").is_file()
+    html = (out / "report.html").read_text()
+    assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
+    assert f"<tr><td>frames with absolute angles</td><td>{len(cols['t'])} of {len(cols['t'])}</td></tr>" in html
 
 
 def test_fused_analysis_adds_gravity_angles_and_keeps_video_angles(session: Path, tmp_path: Path) -> None:
@@ -62,6 +65,9 @@ def test_fused_analysis_adds_gravity_angles_and_keeps_video_angles(session: Path
     assert ext["well_conditioned"], ext
     # truth: identity, 0 s; 3 s of walking at 320x240 pins the rotation to ~2 deg (0.5 deg at 640x480, 8 s)
     assert ext["rotation_deg"] < 3.0 and abs(ext["time_offset_s"]) < 0.01, ext
+    html = (out / "report.html").read_text()  # the report shows the fused absolute angles too
+    fused = np.isfinite(cols["pitch_abs"])
+    assert f"<tr><td>pitch_abs mean [deg]</td><td>{np.mean(cols['pitch_abs'][fused]):.3f}</td></tr>" in html
 
 
 def test_imu_only_with_vqf_filter(session: Path, tmp_path: Path) -> None:

@@ -101,6 +101,33 @@ def test_report_from_the_database(logged_session: tuple[Path, int, GaitModel], t
     assert (tmp_path / "report.html").stat().st_size > 10_000
 
 
+def test_report_from_the_database_plots_the_absolute_angles_of_a_fused_session(
+        logged_session: tuple[Path, int, GaitModel], tmp_path: Path) -> None:
+    data, camera_only, model = logged_session
+    t = np.arange(int(model.duration_s * FPS) + 1) / FPS
+    a = model.truth_angles_deg(t)
+    absolute = np.column_stack([a[:, 0] - 4.0, a[:, 2] + 1.5])  # the wearer leans 4 deg forward, 1.5 deg right
+    fused = t >= 1.0  # the first second camera-only (IMU warm-up): NULL absolute angles
+    with SessionLog(data, camera="sim:normal:16", imu="file:imu.csv") as log:
+        for ti, ai, bi, fi in zip(t, a, absolute, fused, strict=True):
+            log.add_frame(ti, ai, 120, "rotation", "OK", 3.0, abs_angles_deg=bi if fi else None, fused=bool(fi))
+        sid = log.session_id
+    assert main(["report", str(sid), "--out", str(tmp_path / "fused"), "--data-dir", str(data)]) == 0
+    html = (tmp_path / "fused" / "report.html").read_text()
+    assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
+    assert "alt='Absolute pitch and roll (IMU fusion)' src='data:image/png;base64," in html
+    assert f"<tr><td>frames with absolute angles</td><td>{fused.sum()} of {t.size}</td></tr>" in html
+    for name, col in (("pitch_abs", 0), ("roll_abs", 1)):
+        v = absolute[fused, col]
+        for stat, value in (("mean", v.mean()), ("min", v.min()), ("max", v.max())):
+            assert f"<tr><td>{name} {stat} [deg]</td><td>{value:.3f}</td></tr>" in html
+    # a camera-only session (no pitch_abs/roll_abs in its frames): the same report, no absolute section
+    assert main(["report", str(camera_only), "--out", str(tmp_path / "camera"), "--data-dir", str(data)]) == 0
+    html = (tmp_path / "camera" / "report.html").read_text()
+    assert "Absolute pitch and roll" not in html and "pitch_abs" not in html
+    assert "<h2>Figures</h2>" in html
+
+
 def test_command_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                      logged_session: tuple[Path, int, GaitModel]) -> None:
     assert main(["sessions", "list", "--data-dir", str(tmp_path / "none")]) == 2

@@ -2,7 +2,8 @@
 
 Figures follow the paper's Figures 3-8: raw angles with the removed trend, the corrected (detrended) waveforms,
 the Hamming-windowed analysis span, the amplitude spectra with the gait peak, and the extremums per cycle.
-Then the indicator table in the layout of the paper's Table 3 (with the baseline and the difference beside it
+When an IMU was fused, a section on the absolute (gravity-referenced) pitch and roll: their statistics and a
+figure beside the start-relative angles. Then the indicator table in the layout of the paper's Table 3 (with the baseline and the difference beside it
 when a baseline is given), the classification and its reasons, the asymmetry figures and the session metadata.
 
 Matplotlib is used through its object API on the Agg canvas (no pyplot, no global backend switch, no display).
@@ -25,6 +26,7 @@ from numpy.typing import ArrayLike
 
 from walkmon import __version__
 from walkmon.consts import AXES
+from walkmon.errors import InvalidInputError
 from walkmon.indicators import (
     DEFAULT_INDICATOR_SETTINGS,
     GaitAnalysis,
@@ -147,6 +149,31 @@ def _figures(an: GaitAnalysis) -> list[tuple[str, str]]:
     return out
 
 
+def _absolute_section(t_s: np.ndarray, rel_deg: np.ndarray, abs_deg: np.ndarray | None) -> str:
+    """The absolute pitch/roll section ('' without any finite absolute angle, e.g. a camera-only session)."""
+    if abs_deg is None or not np.isfinite(abs_deg).any():
+        return ""
+    have = np.isfinite(abs_deg).all(axis=1)
+    stats: dict[str, Any] = {"frames with absolute angles": f"{int(have.sum())} of {have.size}"}
+    for k, name in enumerate(("pitch_abs", "roll_abs")):
+        v = abs_deg[have, k]
+        stats.update({f"{name} mean [deg]": float(v.mean()), f"{name} min [deg]": float(v.min()),
+                      f"{name} max [deg]": float(v.max()), f"{name} std [deg]": float(v.std())})
+    fig, axs = _figure(2, "Absolute pitch and roll (against gravity) and the start-relative angles")
+    for k, (axis, ax) in enumerate(zip(("pitch", "roll"), axs, strict=True)):
+        col = AXES.index(axis)
+        ax.plot(t_s, abs_deg[:, k], color=_COLORS[axis], lw=0.9, label=f"{axis}_abs (gravity-referenced)")
+        ax.plot(t_s, rel_deg[:, col], color="0.5", lw=0.8, ls="--", label=f"{axis} (relative to the start)")
+        ax.set_ylabel("deg")
+        ax.legend(loc="upper right", fontsize=8)
+    axs[-1].set_xlabel("time [s]")
+    title = "Absolute pitch and roll (IMU fusion)"
+    return (f"<h2>{title}</h2>\n<p class='small'>Pitch and roll against gravity, from the camera-IMU fusion "
+            "(0 = upright camera, no drift); blank where a frame was not fused.</p>\n"
+            f"{_kv_table(stats)}\n<figure><img alt='{title}' src='data:image/png;base64,{_png(fig)}'>"
+            f"<figcaption class='small'>{title}</figcaption></figure>")
+
+
 def _fmt(v: Any, digits: int = 3) -> str:
     if v is None:
         return "&ndash;"
@@ -208,6 +235,8 @@ def render_report_html(
     indicators: Indicators,
     baseline: Indicators | Mapping[str, Any] | None = None,
     meta: Mapping[str, Any] | None = None,
+    *,
+    abs_angles_deg: ArrayLike | None = None,
 ) -> str:
     """The report as one HTML string (see :func:`write_report`)."""
     doc = indicators.to_dict()
@@ -235,6 +264,8 @@ def render_report_html(
         session[str(k)] = v if isinstance(v, int | float | str) or v is None else str(v)
     ref = {f"{k} reference (upright) [deg]": v for k, v in doc["reference_deg"].items()}
     ref.update({f"{k} drift removed [deg]": v for k, v in doc["drift_removed_deg"].items()})
+    absolute = _absolute_section(analysis.t_s, analysis.raw_deg,
+                                 None if abs_angles_deg is None else np.asarray(abs_angles_deg, float).reshape(-1, 2))
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>walkmon gait report</title>
 <style>{_CSS}</style></head><body>
@@ -250,6 +281,7 @@ reference paper (swing &phi; = a &minus; b and inclination &rho; = (a + b)/2 per
 {_kv_table(doc['asymmetry'])}
 <h2>Figures</h2>
 {figures}
+{absolute}
 <h2>Session</h2>
 {_kv_table(session)}
 {_kv_table(ref) if ref else ''}
@@ -267,12 +299,20 @@ def write_report(
     *,
     settings: IndicatorSettings | None = None,
     reference_deg: ArrayLike | None = None,
+    abs_angles_deg: ArrayLike | None = None,
 ) -> Path:
     """Write the self-contained report.html for one walk; returns its path.
 
     The figures are recomputed with :func:`walkmon.indicators.analyze_gait` in ``indicators.mode`` (or with
-    ``settings``); the tables show ``indicators`` as given.
+    ``settings``); the tables show ``indicators`` as given. ``abs_angles_deg`` (N, 2): the fused absolute
+    pitch and roll at the same ``t_s`` (NaN where a frame was not fused) adds their section; none, or all NaN:
+    no section.
     """
+    if abs_angles_deg is not None:
+        abs_angles_deg = np.asarray(abs_angles_deg, dtype=float)
+        if abs_angles_deg.shape != (np.shape(t_s)[0], 2):
+            msg = f"abs_angles_deg must have shape ({np.shape(t_s)[0]}, 2) like t_s, got {abs_angles_deg.shape}"
+            raise InvalidInputError(msg)
     if settings is None:
         settings = (
             DEFAULT_INDICATOR_SETTINGS
@@ -280,7 +320,7 @@ def write_report(
             else IndicatorSettings(mode=indicators.mode)
         )
     analysis = analyze_gait(t_s, angles_deg, settings, reference_deg=reference_deg)
-    text = render_report_html(analysis, indicators, baseline, meta)
+    text = render_report_html(analysis, indicators, baseline, meta, abs_angles_deg=abs_angles_deg)
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     p.write_text(text, encoding="utf-8")

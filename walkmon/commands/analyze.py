@@ -125,7 +125,11 @@ def run(args: argparse.Namespace) -> int:
         from walkmon.imu_analysis import analyze_imu_only  # noqa: PLC0415
 
         t_s, angles_deg = analyze_imu_only(args, sys.stdout)
-        return _later_stages(args, out_dir, t_s, angles_deg, [])
+        from walkmon.tables import read_table  # noqa: PLC0415
+
+        absolute = read_table(out_dir / "angles.csv", ("pitch_abs", "roll_abs"))
+        return _later_stages(args, out_dir, t_s, angles_deg, [],
+                             np.column_stack([absolute["pitch_abs"], absolute["roll_abs"]]))
     camera = read_camera_yaml(args.calib) if args.calib else None
     with VideoFile(args.video) as video:
         if camera is None:
@@ -156,16 +160,21 @@ def run(args: argparse.Namespace) -> int:
 
     t_s = np.asarray(columns["t"], dtype=float)
     angles_deg = np.column_stack([columns["pitch"], columns["yaw"], columns["roll"]])
-    return _later_stages(args, out_dir, t_s, angles_deg, estimates)
+    absolute = (np.column_stack([columns["pitch_abs"], columns["roll_abs"]]).astype(float)
+                if "pitch_abs" in columns else None)
+    return _later_stages(args, out_dir, t_s, angles_deg, estimates, absolute)
 
 
-def _later_stages(args: argparse.Namespace, out_dir: Path, t_s, angles_deg, estimates) -> int:  # noqa: ANN001
-    """indicators.json / report.html and the optional session record, from (t_s, angles_deg)."""
+def _later_stages(args: argparse.Namespace, out_dir: Path, t_s, angles_deg, estimates,  # noqa: ANN001
+                  abs_angles_deg: np.ndarray | None = None) -> int:
+    """indicators.json / report.html and the optional session record, from (t_s, angles_deg) (and the fused
+    absolute pitch/roll for the report when an IMU was fused)."""
     # ---- later stages: indicators.json / report.html from (t_s, angles_deg) go here (gait engineer) ----
     from walkmon.commands.indicators import gait_outputs, summary_line  # noqa: PLC0415
 
     gait = gait_outputs(out_dir, t_s, angles_deg, baseline_path=args.baseline, mode=args.mode,
-                        meta={"video": str(args.video), "rotation method": args.method})
+                        meta={"video": str(args.video), "rotation method": args.method},
+                        abs_angles_deg=abs_angles_deg)
     sys.stdout.write(summary_line(*gait))
     if getattr(args, "save", False):  # live engineer: offline checks land in the same session history
         from walkmon.session_log import default_data_dir, record_offline_session  # noqa: PLC0415

@@ -55,8 +55,11 @@ def gait_outputs(
     baseline_path: str | Path | None = None,
     mode: str = "walkmon",
     meta: Mapping[str, Any] | None = None,
+    abs_angles_deg: np.ndarray | None = None,
 ) -> tuple[Path, Path, Any]:
     """Write ``out_dir/indicators.json`` and ``out_dir/report.html``; returns their paths and the Indicators.
+
+    ``abs_angles_deg`` (N, 2): fused absolute pitch and roll at ``t_s`` (NaN where not fused) for the report.
 
     The one function ``walkmon analyze`` and ``walkmon indicators`` share (and ``walkmon demo`` may call).
     """
@@ -73,7 +76,8 @@ def gait_outputs(
     meta = dict(meta or {})
     if baseline_path:
         meta.setdefault("baseline", str(baseline_path))
-    html_path = write_report(out / "report.html", t_s, angles_deg, indicators, baseline, meta, settings=settings)
+    html_path = write_report(out / "report.html", t_s, angles_deg, indicators, baseline, meta, settings=settings,
+                             abs_angles_deg=abs_angles_deg)
     return json_path, html_path, indicators
 
 

@@ -35,10 +35,17 @@ def run(args: argparse.Namespace) -> int:
     finally:
         conn.close()
     t = np.asarray(frames["t_s"], dtype=float)
-    a = np.column_stack([np.asarray([np.nan if v is None else v for v in frames[c]], float)
-                         for c in ("pitch", "yaw", "roll")]) if t.size else np.empty((0, 3))
+
+    def column(name: str) -> np.ndarray:
+        return np.asarray([np.nan if v is None else v for v in frames[name]], float)
+
+    a = np.column_stack([column(c) for c in ("pitch", "yaw", "roll")]) if t.size else np.empty((0, 3))
     ok = np.all(np.isfinite(a), axis=1) if t.size else np.zeros(0, bool)
     t, a = t[ok], a[ok]
+    # schema 2: the fused gravity-referenced angles (NULL where not fused, or in a camera-only session)
+    absolute = np.column_stack([column("pitch_abs"), column("roll_abs")])[ok] if ok.size else None
+    if absolute is not None and not np.isfinite(absolute).any():
+        absolute = None
     if t.size < 16:
         msg = f"session {args.session_id} has {t.size} frames with angles: too few for a report"
         raise InvalidInputError(msg)
@@ -53,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
     meta = {"session": args.session_id, "kind": record["kind"], "source": record["camera"],
             "started_utc": record["started_utc"], "ended_utc": record["ended_utc"],
             "end_reason": record["end_reason"], "frames": int(t.size)}
-    html = write_report(out / "report.html", t - t[0], a, ind, baseline, meta, reference_deg=reference)
+    html = write_report(out / "report.html", t - t[0], a, ind, baseline, meta, reference_deg=reference,
+                        abs_angles_deg=absolute)
     label = ind.to_dict().get("classification", {}).get("label", "?")
     sys.stdout.write(f"session {args.session_id}: {label}; wrote {out / 'indicators.json'} and {html}\n")
     return 0
