@@ -69,6 +69,36 @@ def test_analyze_writes_angles_csv(small_video, tmp_path, capsys):
     assert "20 frames" in capsys.readouterr().out
 
 
+def test_analyze_counts_frames_per_status_and_held_black_frames(small_video, tmp_path, capsys):
+    from walkmon.drivers.video_file import VideoFile
+
+    clip = tmp_path / "black.mp4"  # the panning clip with frames 8-10 black (a hand over the lens)
+    writer = cv2.VideoWriter(str(clip), cv2.VideoWriter_fourcc(*"mp4v"), 25.0, (W, H))
+    with VideoFile(small_video) as video:
+        for i, (_, frame) in enumerate(video):
+            writer.write(np.zeros_like(frame) if 8 <= i <= 10 else frame)
+    writer.release()
+    out = tmp_path / "out"
+    assert main(["analyze", str(clip), "--out", str(out), "--no-progress"]) == 0
+    assert f"20 frames: 17 ok, 3 held (too_few_features) -> {out / 'angles.csv'}" in capsys.readouterr().out
+
+
+def test_status_summary_tells_estimated_low_quality_from_held_frames():
+    from walkmon.commands.analyze import status_summary
+    from walkmon.rotation import EstimateStatus as S
+    from walkmon.rotation import make_estimate
+
+    def est(status, model):
+        return make_estimate(0.0, np.eye(3), n_inliers=0, model=model, status=status)
+
+    frames = ([est(S.FIRST_FRAME, "identity")] + [est(S.OK, "rotation")] * 5 + [est(S.LOW_QUALITY, "rotation")] * 3
+              + [est(S.LOW_QUALITY, "hold"), est(S.TOO_FEW_FEATURES, "hold")] + [est(S.REPEATED_FRAME, "hold")] * 2)
+    assert status_summary(frames) == ("13 frames: 6 ok, 3 low_quality (rotation-only), "
+                                      "4 held (1 low_quality, 2 repeated_frame, 1 too_few_features)")
+    assert status_summary(frames[:6]) == "6 frames: 6 ok"
+    assert status_summary([est(S.TOO_FEW_FEATURES, "hold")] * 2) == "2 frames: 2 held (too_few_features)"
+
+
 def test_analyze_with_calibration_and_paper_method(small_video, tmp_path):
     calib = tmp_path / "camera.yaml"
     write_camera_yaml(default_camera(W, H, hfov_deg=60.0), calib)

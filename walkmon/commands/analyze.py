@@ -111,6 +111,27 @@ def angle_columns(estimates) -> dict[str, object]:  # noqa: ANN001
     }
 
 
+def status_summary(estimates) -> str:  # noqa: ANN001
+    """``"480 frames: 470 ok, 8 low_quality (rotation-only), 2 held (too_few_features)"``.
+
+    ok counts the measured frames (``ok`` and the ``first_frame``); a frame whose status is not ok is either
+    still estimated (``low_quality`` with the rotation-only fit) and counted under its status, or held (model
+    ``hold``: the last orientation repeated) and counted under "held" with its statuses. Zero counts are left out.
+    """
+    from collections import Counter  # noqa: PLC0415
+
+    n_ok = sum(e.status.is_measured for e in estimates)
+    estimated = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model != "hold")
+    held = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model == "hold")
+    parts = [f"{n_ok} ok"] if n_ok else []
+    parts += [f"{n} {status}{' (rotation-only)' if status == 'low_quality' else ''}"
+              for status, n in sorted(estimated.items())]
+    if held:
+        why = ", ".join(status if len(held) == 1 else f"{n} {status}" for status, n in sorted(held.items()))
+        parts.append(f"{sum(held.values())} held ({why})")
+    return f"{len(estimates)} frames: {', '.join(parts) or 'none'}"
+
+
 def run(args: argparse.Namespace) -> int:
     from walkmon.calibration import default_camera, read_camera_yaml  # noqa: PLC0415
     from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
@@ -155,8 +176,7 @@ def run(args: argparse.Namespace) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     angles_path = out_dir / "angles.csv"
     write_table(angles_path, columns, precision={**_PRECISION})
-    held = sum(not e.status.is_measured for e in estimates)
-    sys.stdout.write(f"{len(estimates)} frames ({held} held) -> {angles_path}\n")
+    sys.stdout.write(f"{status_summary(estimates)} -> {angles_path}\n")
 
     t_s = np.asarray(columns["t"], dtype=float)
     angles_deg = np.column_stack([columns["pitch"], columns["yaw"], columns["roll"]])
