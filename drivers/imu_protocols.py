@@ -69,6 +69,81 @@ class ImuParser(Protocol):
     def reset(self) -> None: ...
 
 
+# ------------------------------------------------------------------------------------------ framed binary packets
+
+
+class _FramedParser:
+    """The resynchronising scan the binary parsers share: fixed-length packets that start with ``_HEADER`` and end
+    with a checksum byte, ``sum(packet[_CHECKSUM_FROM:-1]) & 0xFF``.
+
+    Bytes before a header are skipped (a trailing partial header is kept: it may be completed by the next chunk);
+    a packet whose checksum fails counts as bad and only its first byte is skipped, so a header inside it is
+    found next; a tail shorter than a packet waits for more bytes. Subclasses decode good packets in
+    :meth:`_decode` and say which packet types they ignore in :meth:`_wanted`.
+    """
+
+    _HEADER: bytes
+    _LENGTH: int
+    _CHECKSUM_FROM: int
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self._buffer = bytearray()
+        self._stats = ParserStats()
+
+    @property
+    def stats(self) -> ParserStats:
+        return self._stats
+
+    def _wanted(self, buf: bytearray, i: int) -> bool:  # noqa: ARG002 - every packet by default
+        """False for a well-formed packet (at ``buf[i]``) of a type this parser does not use."""
+        return True
+
+    def _decode(self, buf: bytearray, i: int, t_s: float) -> ImuSample | None:
+        """The sample the good packet at ``buf[i]`` completes, if any."""
+        raise NotImplementedError
+
+    def feed(self, data: bytes, t_s: float) -> list[ImuSample]:
+        buf = self._buffer
+        buf.extend(data)
+        header, length, checksum_from = self._HEADER, self._LENGTH, self._CHECKSUM_FROM
+        out: list[ImuSample] = []
+        good = bad = skipped = ignored = 0
+        i = 0
+        n = len(buf)
+        while n - i >= length:
+            if not buf.startswith(header, i):
+                j = buf.find(header, i + 1)
+                j = n - (len(header) - 1) if j < 0 else j  # keep a partial header at the end
+                skipped += j - i
+                i = j
+                continue
+            if (sum(buf[i + checksum_from : i + length - 1]) & 0xFF) != buf[i + length - 1]:
+                bad += 1
+                skipped += 1
+                i += 1
+                continue
+            start = i
+            i += length
+            good += 1
+            if not self._wanted(buf, start):
+                ignored += 1
+            elif (sample := self._decode(buf, start, t_s)) is not None:
+                out.append(sample)
+        del buf[:i]
+        self._stats = replace(
+            self._stats,
+            good_packets=self._stats.good_packets + good,
+            bad_checksums=self._stats.bad_checksums + bad,
+            skipped_bytes=self._stats.skipped_bytes + skipped,
+            ignored_packets=self._stats.ignored_packets + ignored,
+            samples=self._stats.samples + len(out),
+        )
+        return out
+
+
 # --------------------------------------------------------------------------------------------------- WitMotion
 
 _WIT_HEADER = 0x55
@@ -84,60 +159,22 @@ def witmotion_packet(packet_type: int, values: tuple[int, int, int, int]) -> byt
     return body + bytes([sum(body) & 0xFF])
 
 
-class WitMotionParser:
+class WitMotionParser(_FramedParser):
     """Incremental parser for WitMotion WT901/JY901 binary packets."""
 
-    def __init__(self) -> None:
-        self.reset()
+    _HEADER = bytes([_WIT_HEADER])
+    _LENGTH = _WIT_LEN
+    _CHECKSUM_FROM = 0
 
     def reset(self) -> None:
-        self._buffer = bytearray()
+        super().reset()
         self._group: dict[int, tuple[int, int, int, int]] = {}
-        self._stats = ParserStats()
 
-    @property
-    def stats(self) -> ParserStats:
-        return self._stats
+    def _wanted(self, buf: bytearray, i: int) -> bool:
+        return buf[i + 1] in (_WIT_ACCEL, _WIT_RATE, _WIT_ANGLE)
 
-    def feed(self, data: bytes, t_s: float) -> list[ImuSample]:
-        buf = self._buffer
-        buf.extend(data)
-        out: list[ImuSample] = []
-        good = bad = skipped = ignored = 0
-        i = 0
-        n = len(buf)
-        while n - i >= _WIT_LEN:
-            if buf[i] != _WIT_HEADER:
-                j = buf.find(_WIT_HEADER, i + 1)
-                j = n if j < 0 else j
-                skipped += j - i
-                i = j
-                continue
-            if (sum(buf[i : i + 10]) & 0xFF) != buf[i + 10]:
-                bad += 1
-                skipped += 1
-                i += 1
-                continue
-            kind = buf[i + 1]
-            values = struct.unpack_from("<4h", buf, i + 2)
-            i += _WIT_LEN
-            good += 1
-            if kind in (_WIT_ACCEL, _WIT_RATE, _WIT_ANGLE):
-                sample = self._add_to_group(kind, values, t_s)
-                if sample is not None:
-                    out.append(sample)
-            else:
-                ignored += 1
-        del buf[:i]
-        self._stats = replace(
-            self._stats,
-            good_packets=self._stats.good_packets + good,
-            bad_checksums=self._stats.bad_checksums + bad,
-            skipped_bytes=self._stats.skipped_bytes + skipped,
-            ignored_packets=self._stats.ignored_packets + ignored,
-            samples=self._stats.samples + len(out),
-        )
-        return out
+    def _decode(self, buf: bytearray, i: int, t_s: float) -> ImuSample | None:
+        return self._add_to_group(buf[i + 1], struct.unpack_from("<4h", buf, i + 2), t_s)
 
     def _add_to_group(self, kind: int, values: tuple[int, int, int, int], t_s: float) -> ImuSample | None:
         sample = None
@@ -176,54 +213,18 @@ def bno08x_rvc_frame(index: int, yaw_pitch_roll_cdeg: tuple[int, int, int], acce
     return _RVC_HEADER + body + bytes([sum(body) & 0xFF])
 
 
-class Bno08xRvcParser:
+class Bno08xRvcParser(_FramedParser):
     """Incremental parser for BNO08x UART-RVC frames (100 Hz, angles + acceleration, no gyroscope)."""
 
-    def __init__(self) -> None:
-        self.reset()
+    _HEADER = _RVC_HEADER
+    _LENGTH = _RVC_LEN
+    _CHECKSUM_FROM = len(_RVC_HEADER)
 
-    def reset(self) -> None:
-        self._buffer = bytearray()
-        self._stats = ParserStats()
-
-    @property
-    def stats(self) -> ParserStats:
-        return self._stats
-
-    def feed(self, data: bytes, t_s: float) -> list[ImuSample]:
-        buf = self._buffer
-        buf.extend(data)
-        out: list[ImuSample] = []
-        good = bad = skipped = 0
-        i = 0
-        n = len(buf)
-        while n - i >= _RVC_LEN:
-            if buf[i] != 0xAA or buf[i + 1] != 0xAA:
-                j = buf.find(_RVC_HEADER, i + 1)
-                j = n - 1 if j < 0 else j  # keep a trailing 0xAA: it may start the next header
-                skipped += j - i
-                i = j
-                continue
-            if (sum(buf[i + 2 : i + 18]) & 0xFF) != buf[i + 18]:
-                bad += 1
-                skipped += 1
-                i += 1
-                continue
-            index = buf[i + 2]
-            yaw, pitch, roll, ax, ay, az = struct.unpack_from("<3h3h", buf, i + 3)
-            i += _RVC_LEN
-            good += 1
-            accel = (ax / 1000.0 * GRAVITY_MS2, ay / 1000.0 * GRAVITY_MS2, az / 1000.0 * GRAVITY_MS2)
-            out.append(ImuSample(t_s, None, accel, (yaw / 100.0, pitch / 100.0, roll / 100.0), index))
-        del buf[:i]
-        self._stats = replace(
-            self._stats,
-            good_packets=self._stats.good_packets + good,
-            bad_checksums=self._stats.bad_checksums + bad,
-            skipped_bytes=self._stats.skipped_bytes + skipped,
-            samples=self._stats.samples + len(out),
-        )
-        return out
+    def _decode(self, buf: bytearray, i: int, t_s: float) -> ImuSample | None:
+        index = buf[i + 2]
+        yaw, pitch, roll, ax, ay, az = struct.unpack_from("<3h3h", buf, i + 3)
+        accel = (ax / 1000.0 * GRAVITY_MS2, ay / 1000.0 * GRAVITY_MS2, az / 1000.0 * GRAVITY_MS2)
+        return ImuSample(t_s, None, accel, (yaw / 100.0, pitch / 100.0, roll / 100.0), index)
 
 
 # ------------------------------------------------------------------------------------------------------- CSV
