@@ -26,6 +26,8 @@ FPS = 30.0
 
 
 def rmse(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per-axis RMSE of (N, 3) angle arrays in degrees, the yaw difference wrapped to [-180, 180) (also used by
+    test_fusion_round2)."""
     e = a - b
     e[:, 1] = (e[:, 1] + 180.0) % 360.0 - 180.0
     return np.sqrt(np.mean(e**2, axis=0))

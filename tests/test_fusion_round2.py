@@ -24,13 +24,9 @@ from walkmon.imu_attitude import (
 from walkmon.simulate.gait import GaitModel
 from walkmon.simulate.imu import simulate_imu
 
+from test_fusion import rmse  # the per-axis RMSE with yaw wrapped, shared with round 1 (tests/ is on sys.path)
+
 FPS = 30.0
-
-
-def rmse(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    e = a - b
-    e[:, 1] = (e[:, 1] + 180.0) % 360.0 - 180.0
-    return np.sqrt(np.mean(e**2, axis=0))
 
 
 @pytest.fixture(scope="module")
