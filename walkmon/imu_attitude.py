@@ -152,9 +152,9 @@ DEFAULT_ATTITUDE_SETTINGS = AttitudeSettings()
 #: For hand-held or general motion (no sustained accelerations) with a real MEMS IMU: gravity from the
 #: accelerometer low-passed over 2 s in the gyro-integrated frame (VQF's idea), a firmer gravity reference
 #: (0.02), a faster-wandering bias (2e-4 rad/s/sqrt(s)), 1 % gyro scale error, and gyro samples taken as
-#: interval means (``gyroscope_rule="backward"``). Tuned on the two BROAD trials, where it beats vqf (online)
-#: and imufusion (benchmarks/results/fusion.md; tuned and measured on the same two trials, so the margin is
-#: optimistic). Worse on walks, where the start of walking and speed changes are sustained forward
+#: interval means (``gyroscope_rule="backward"``). Chosen on the two BROAD trials, where it beats vqf (online)
+#: and imufusion (benchmarks/results/fusion.md); settings chosen on one trial and measured on the other still
+#: beat both (benchmarks/results/broad-cv.md: 0.390 / 0.995 deg vs vqf 0.429 / 1.023). Worse on walks, where the start of walking and speed changes are sustained forward
 #: accelerations that a 2 s low-pass takes for gravity.
 HANDHELD_ATTITUDE_SETTINGS = AttitudeSettings(
     gravity_lowpass_s=2.0,
