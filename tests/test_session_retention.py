@@ -75,7 +75,7 @@ def test_delete_removes_the_sessions_and_all_their_rows_and_shrinks_the_file(
     assert all(c == {"sessions": 1, "frames": 2000, "imu": 2000, "hops": 1, "alerts": 1, "calibrations": 1}
                for c in before.values())
     size_before = (data / DB_FILENAME).stat().st_size
-    assert main(["sessions", "delete", str(old), str(running), "--data-dir", str(data)]) == 0
+    assert main(["sessions", "delete", str(old), str(running), "--force", "--data-dir", str(data)]) == 0
     out = capsys.readouterr().out
     assert out.startswith("deleted 2 session(s):") and "sim:40" in out and "sim:50" in out
     after = _row_counts(data)
@@ -95,6 +95,29 @@ def test_delete_of_an_unknown_id_is_one_line_exit_2_and_deletes_nothing(
     assert _row_counts(data) == before
     with pytest.raises(InvalidInputError, match="no session 7, 999"):
         delete_sessions(data, [999, 7])
+
+
+def test_delete_refuses_a_session_without_an_end_time_unless_forced(
+        four_sessions: tuple[Path, list[int]], capsys: pytest.CaptureFixture[str]) -> None:
+    data, (old, mid, new, running) = four_sessions
+    before = _row_counts(data)
+    # refused together with an ended one: one line, exit 2, and not even the ended session is deleted
+    assert main(["sessions", "delete", str(old), str(running), "--data-dir", str(data)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.count("\n") == 1
+    assert f"session {running} has no end time and may still be running" in captured.err
+    assert "nothing deleted" in captured.err and "--force" in captured.err
+    assert _row_counts(data) == before
+    with pytest.raises(InvalidInputError, match=f"session {running} has no end time"):
+        delete_sessions(data, [running])
+    assert _row_counts(data) == before
+    # an unknown id is still reported as unknown, before the running check
+    with pytest.raises(InvalidInputError, match="no session 999"):
+        delete_sessions(data, [running, 999], force=True)
+    assert delete_sessions(data, [running], force=True) == [running]
+    assert set(_row_counts(data)) == {old, mid, new}
+    assert main(["sessions", "delete", str(old), "--data-dir", str(data)]) == 0  # ended: no --force needed
+    assert set(_row_counts(data)) == {mid, new}
 
 
 def test_prune_deletes_ended_sessions_older_than_days_and_never_a_running_one(

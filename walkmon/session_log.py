@@ -417,26 +417,33 @@ def _vacuum(conn: sqlite3.Connection) -> None:
     conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
 
 
-def delete_sessions(data_dir: str | Path, ids: Iterable[int]) -> list[int]:
+def delete_sessions(data_dir: str | Path, ids: Iterable[int], *, force: bool = False) -> list[int]:
     """Delete the sessions ``ids`` and all their rows (one transaction), then VACUUM; the ids deleted.
 
-    Any session may be deleted, also one without an end time (cut off by a crash, or still running: a live
-    writer would then keep adding rows under a session that no longer exists). An id not in the database
-    raises :class:`~walkmon.errors.InvalidInputError` and deletes nothing.
+    A session without an end time may be one a ``walkmon live`` is still writing into (it would keep adding
+    rows under an id that no longer exists), so it is refused unless ``force`` (for a session cut off by a power
+    loss or a crash). An id not in the database, or a refused one, raises
+    :class:`~walkmon.errors.InvalidInputError` and deletes nothing.
     """
     wanted = sorted({int(i) for i in ids})
     conn = open_database(data_dir, create=False)
     try:
-        have = {r[0] for r in conn.execute("SELECT id FROM sessions")}
-        missing = [i for i in wanted if i not in have]
+        ended = dict(conn.execute("SELECT id, ended_utc IS NOT NULL FROM sessions").fetchall())
+        missing = [i for i in wanted if i not in ended]
         if missing:
             msg = (f"no session {', '.join(map(str, missing))} in the database (see 'walkmon sessions list'); "
                    "nothing deleted")
             raise InvalidInputError(msg)
+        unended = [i for i in wanted if not ended[i]]
+        if unended and not force:
+            msg = (f"session {', '.join(map(str, unended))} has no end time and may still be running; nothing "
+                   "deleted (pass --force to delete a session that was cut off, e.g. by a power loss)")
+            raise InvalidInputError(msg)
         if wanted:
             _delete_rows(conn, wanted)
             _vacuum(conn)
-            _log.info("deleted session(s) %s from %s", ", ".join(map(str, wanted)), _db_path(data_dir))
+            _log.info("deleted session(s) %s from %s%s", ", ".join(map(str, wanted)), _db_path(data_dir),
+                      f" (forced, without an end time: {', '.join(map(str, unended))})" if unended else "")
     finally:
         conn.close()
     return wanted

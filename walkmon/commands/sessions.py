@@ -37,6 +37,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     _data_dir_arg(ep)
     dp = sub.add_parser("delete", help="delete sessions and all their rows, then shrink the file")
     dp.add_argument("session_ids", type=int, nargs="+", metavar="ID")
+    dp.add_argument("--force", action="store_true",
+                    help="also delete sessions without an end time (cut off, e.g. by a power loss); by default "
+                         "they are refused, as a running 'walkmon live' may still be writing into them")
     _data_dir_arg(dp)
     pp = sub.add_parser("prune", help="delete ended sessions older than DAYS (never a running one)")
     pp.add_argument("--older-than", type=float, required=True, metavar="DAYS",
@@ -129,7 +132,7 @@ def _delete(args: argparse.Namespace) -> int:
 
     data_dir = data_dir_of(args)
     before = {s.id: s for s in list_sessions(data_dir)}
-    deleted = delete_sessions(data_dir, args.session_ids)
+    deleted = delete_sessions(data_dir, args.session_ids, force=args.force)
     sys.stdout.write(f"deleted {len(deleted)} session(s):\n{_describe(before, deleted)}\n")
     return 0
 
