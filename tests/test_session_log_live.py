@@ -191,3 +191,42 @@ def test_analyze_save_records_an_offline_session(tmp_path: Path, capsys: pytest.
     stored = read_session_table(conn, s.id, "frames")
     conn.close()
     assert np.allclose(stored["pitch"], offline["pitch"], atol=1e-4)  # angles.csv is rounded to 4 decimals
+    # camera-only: the schema-2 IMU columns stay NULL, and the report has no absolute-angle section
+    assert set(stored["pitch_abs"]) == {None} and set(stored["roll_abs"]) == {None} and set(stored["fused"]) == {None}
+    assert main(["report", str(s.id), "--data-dir", str(data), "--out", str(tmp_path / "rep")]) == 0
+    assert "Absolute pitch and roll" not in (tmp_path / "rep" / "report.html").read_text()
+
+
+def test_analyze_imu_save_stores_the_absolute_angles_for_the_report(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from walkmon.simulate import simulate
+    from walkmon.tables import read_table
+
+    sim = simulate(tmp_path / "clip", walk="normal:3", seed=4, width=160, height=120)
+    imu_csv = sim.video_path.parent / "imu.csv"
+    data = tmp_path / "data"
+    runs = {"fused": [str(sim.video_path), "--calib", str(sim.camera_path), "--no-progress"], "imu_only": []}
+    for name, video in runs.items():
+        assert main(["analyze", *video, "--imu", str(imu_csv), "--out", str(tmp_path / name), "--save",
+                     "--data-dir", str(data)]) == 0
+    capsys.readouterr()
+    fused_session, imu_session = list_sessions(data)
+    assert fused_session.imu == imu_session.imu == str(imu_csv)
+    for name, session in zip(runs, (fused_session, imu_session), strict=True):
+        offline = read_table(tmp_path / name / "angles.csv", ("t", "pitch", "pitch_abs", "roll_abs"))
+        conn = open_database(data, create=False)
+        stored = read_session_table(conn, session.id, "frames")
+        conn.close()
+        assert len(stored["t_s"]) == len(offline["t"]) > 50
+        for col in ("pitch_abs", "roll_abs"):
+            values = np.array(stored[col], dtype=float)  # None (NULL) would become NaN
+            assert np.all(np.isfinite(values)), (name, col)
+            assert np.allclose(values, offline[col], atol=1e-6), (name, col)  # angles.csv: 6 decimals
+        assert np.ptp(np.array(stored["pitch_abs"], dtype=float)) > 0.5  # a walk, not a constant
+        # fused: 1 per frame the IMU covered when a video was fused; no camera in IMU-only analysis -> NULL
+        assert set(stored["fused"]) == ({1} if name == "fused" else {None})
+    assert main(["report", str(fused_session.id), "--data-dir", str(data), "--out", str(tmp_path / "rep")]) == 0
+    html = (tmp_path / "rep" / "report.html").read_text()
+    assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
+    fused_abs = read_table(tmp_path / "fused" / "angles.csv", ("pitch_abs",))["pitch_abs"]
+    assert f"<tr><td>pitch_abs mean [deg]</td><td>{np.mean(fused_abs):.3f}</td></tr>" in html

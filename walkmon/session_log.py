@@ -385,16 +385,34 @@ def record_offline_session(
     angles_deg: Iterable[Sequence[float]],
     *,
     source: str,
+    imu: str = "",
     meta: dict[str, object] | None = None,
     config: dict[str, object] | None = None,
     extra: Iterable[tuple[int, str, str]] | None = None,
+    abs_angles_deg: Iterable[Sequence[float]] | None = None,
+    fused: Iterable[bool] | None = None,
 ) -> int:
-    """Store an offline analysis (``walkmon analyze --save``) as a session of kind ``analyze``; its id."""
-    log = SessionLog(data_dir, kind="analyze", camera=source, config=config, meta=meta, flush_interval_s=3600)
-    extra_list = list(extra) if extra is not None else None
-    for i, (t, a) in enumerate(zip(t_s, angles_deg, strict=True)):
-        n_inl, model, status = extra_list[i] if extra_list else (-1, "", "")
-        log.add_frame(t, a, n_inl, model, status)
+    """Store an offline analysis (``walkmon analyze --save``) as a session of kind ``analyze``; its id.
+
+    ``abs_angles_deg`` (pitch_abs, roll_abs per frame; NaN stored as NULL) and ``fused`` (1/0 per frame) fill
+    the frames' schema-2 columns when the analysis used an IMU; without them they stay NULL, as for a
+    camera-only live session.
+    """
+    t_list, a_list = list(t_s), list(angles_deg)
+    columns = {"extra": None if extra is None else list(extra),
+               "abs": None if abs_angles_deg is None else list(abs_angles_deg),
+               "fused": None if fused is None else list(fused)}
+    for name, values in columns.items():
+        if values is not None and len(values) != len(t_list):
+            msg = f"{name}: {len(values)} rows for {len(t_list)} frames"
+            raise InvalidInputError(msg)
+    log = SessionLog(data_dir, kind="analyze", camera=source, imu=imu, config=config, meta=meta,
+                     flush_interval_s=3600)
+    for i, (t, a) in enumerate(zip(t_list, a_list, strict=True)):
+        n_inl, model, status = columns["extra"][i] if columns["extra"] is not None else (-1, "", "")
+        log.add_frame(t, a, n_inl, model, status,
+                      abs_angles_deg=None if columns["abs"] is None else columns["abs"][i],
+                      fused=None if columns["fused"] is None else bool(columns["fused"][i]))
     log.close("complete")
     return log.session_id
 

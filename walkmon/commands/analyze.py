@@ -200,10 +200,15 @@ def _later_stages(args: argparse.Namespace, out_dir: Path, t_s, angles_deg, esti
         from walkmon.session_log import default_data_dir, record_offline_session  # noqa: PLC0415
 
         data_dir = Path(args.data_dir).expanduser() if args.data_dir else default_data_dir()
+        # with an IMU, the frames' pitch_abs/roll_abs as 'walkmon live' stores them, so 'walkmon report ID'
+        # shows their section; fused (1: the IMU covered the frame, 0: camera only) only when a video was fused
+        fused = (None if abs_angles_deg is None or args.video is None
+                 else np.all(np.isfinite(abs_angles_deg), axis=1).tolist())
         sid = record_offline_session(
-            data_dir, t_s, angles_deg, source=str(args.video), config={"method": args.method},
-            meta={"out_dir": str(out_dir), "baseline": args.baseline},
-            extra=[(e.n_inliers, e.model, e.status.value) for e in estimates],
+            data_dir, t_s, angles_deg, source=str(args.video), imu=str(args.imu or ""),
+            config={"method": args.method}, meta={"out_dir": str(out_dir), "baseline": args.baseline},
+            extra=[(e.n_inliers, e.model, e.status.value) for e in estimates] or None,  # none: IMU-only
+            abs_angles_deg=abs_angles_deg, fused=fused,
         )
         sys.stdout.write(f"saved as session {sid} in {data_dir}\n")
     return 0
