@@ -114,6 +114,32 @@ def test_indicators_cli_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture
     assert json.loads((tmp_path / "p" / "indicators.json").read_text())["mode"] == "paper"
 
 
+def test_indicators_cli_reports_the_absolute_angles_of_an_imu_angles_csv(tmp_path: Path) -> None:
+    """An angles.csv as 'walkmon analyze --imu' writes it: pitch_abs/roll_abs (nan where a frame was not fused)
+    beside the start-relative angles and text columns; the report gets the section analyze gives it."""
+    t, a = _walk(0.0)
+    pitch_abs, roll_abs = a[:, 0] - 7.0, a[:, 2] + 2.0
+    pitch_abs[:30] = roll_abs[:30] = np.nan  # the first second not fused
+    csv = tmp_path / "angles.csv"
+    write_table(csv, {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2], "pitch_abs": pitch_abs,
+                      "roll_abs": roll_abs, "visual_used": ["1"] * len(t), "model": ["rotation"] * len(t)})
+    assert main(["indicators", str(csv), "--out", str(tmp_path / "imu")]) == 0
+    html = (tmp_path / "imu" / "report.html").read_text()
+    assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
+    n = len(t)
+    assert f"<tr><td>frames with absolute angles</td><td>{n - 30} of {n}</td></tr>" in html
+    assert f"<tr><td>pitch_abs mean [deg]</td><td>{np.mean(pitch_abs[30:]):.3f}</td></tr>" in html
+    assert f"<tr><td>roll_abs max [deg]</td><td>{np.max(roll_abs[30:]):.3f}</td></tr>" in html
+    # the same angles without those columns, or with them all nan (an exported camera-only session): no section
+    write_table(csv, {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2]})
+    assert main(["indicators", str(csv), "--out", str(tmp_path / "cam")]) == 0
+    assert "Absolute pitch and roll" not in (tmp_path / "cam" / "report.html").read_text()
+    write_table(csv, {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2], "pitch_abs": t * np.nan,
+                      "roll_abs": t * np.nan})
+    assert main(["indicators", str(csv), "--out", str(tmp_path / "nan")]) == 0
+    assert "Absolute pitch and roll" not in (tmp_path / "nan" / "report.html").read_text()
+
+
 @pytest.mark.parametrize(
     ("content", "extra"),
     [(None, []), ("t,pitch,yaw\n0,1,2\n", []), ("t,pitch,yaw,roll\n0,1,x,2\n", []),

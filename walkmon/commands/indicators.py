@@ -18,7 +18,8 @@ HELP = "gait indicators, walk classification and report.html from an angles CSV 
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("angles", help="CSV with columns t,pitch,yaw,roll in degrees (extra columns are ignored)")
+    p.add_argument("angles", help="CSV with columns t,pitch,yaw,roll in degrees; pitch_abs,roll_abs (an angles.csv "
+                   "of 'walkmon analyze --imu') add the report's absolute-angle section; other columns are ignored")
     p.add_argument("--out", required=True, help="output folder for indicators.json and report.html")
     add_gait_arguments(p)
 
@@ -104,8 +105,12 @@ def run(args: argparse.Namespace) -> int:
     table = read_table(path, ANGLE_COLUMNS)
     t = table["t"]
     angles = np.column_stack([table[c] for c in ANGLE_COLUMNS[1:]])
+    # the gravity-referenced angles of 'walkmon analyze --imu' (NaN where not fused), shown as analyze shows them
+    absolute = (np.column_stack([table["pitch_abs"], table["roll_abs"]])
+                if "pitch_abs" in table and "roll_abs" in table else None)
     json_path, html_path, ind = gait_outputs(
-        args.out, t, angles, baseline_path=args.baseline, mode=args.mode, meta=_meta_beside(path)
+        args.out, t, angles, baseline_path=args.baseline, mode=args.mode, meta=_meta_beside(path),
+        abs_angles_deg=absolute,
     )
     sys.stdout.write(summary_line(json_path, html_path, ind))
     return 0
