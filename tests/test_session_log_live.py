@@ -212,6 +212,8 @@ def test_analyze_imu_save_stores_the_absolute_angles_for_the_report(
     capsys.readouterr()
     fused_session, imu_session = list_sessions(data)
     assert fused_session.imu == imu_session.imu == str(imu_csv)
+    assert fused_session.camera == str(sim.video_path)
+    assert imu_session.camera == f"IMU only: {imu_csv}"  # not the text 'None'
     for name, session in zip(runs, (fused_session, imu_session), strict=True):
         offline = read_table(tmp_path / name / "angles.csv", ("t", "pitch", "pitch_abs", "roll_abs"))
         conn = open_database(data, create=False)

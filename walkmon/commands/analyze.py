@@ -192,8 +192,9 @@ def _later_stages(args: argparse.Namespace, out_dir: Path, t_s, angles_deg, esti
     # ---- later stages: indicators.json / report.html from (t_s, angles_deg) go here (gait engineer) ----
     from walkmon.commands.indicators import gait_outputs, summary_line  # noqa: PLC0415
 
+    source = str(args.video) if args.video is not None else f"IMU only: {args.imu}"
     gait = gait_outputs(out_dir, t_s, angles_deg, baseline_path=args.baseline, mode=args.mode,
-                        meta={"video": str(args.video), "rotation method": args.method},
+                        meta={"video": source, "rotation method": args.method},
                         abs_angles_deg=abs_angles_deg)
     sys.stdout.write(summary_line(*gait))
     if getattr(args, "save", False):  # live engineer: offline checks land in the same session history
@@ -205,7 +206,7 @@ def _later_stages(args: argparse.Namespace, out_dir: Path, t_s, angles_deg, esti
         fused = (None if abs_angles_deg is None or args.video is None
                  else np.all(np.isfinite(abs_angles_deg), axis=1).tolist())
         sid = record_offline_session(
-            data_dir, t_s, angles_deg, source=str(args.video), imu=str(args.imu or ""),
+            data_dir, t_s, angles_deg, source=source, imu=str(args.imu or ""),
             config={"method": args.method}, meta={"out_dir": str(out_dir), "baseline": args.baseline},
             extra=[(e.n_inliers, e.model, e.status.value) for e in estimates] or None,  # none: IMU-only
             abs_angles_deg=abs_angles_deg, fused=fused,
