@@ -140,6 +140,22 @@ def test_indicators_cli_reports_the_absolute_angles_of_an_imu_angles_csv(tmp_pat
     assert "Absolute pitch and roll" not in (tmp_path / "nan" / "report.html").read_text()
 
 
+def test_absolute_angles_follow_the_analysis_onto_a_uniform_grid(tmp_path: Path) -> None:
+    """Irregular time stamps (dropped frames) make the analysis resample the angles onto a uniform grid; the
+    absolute angles must be resampled with them, not plotted at the wrong times. pitch_abs = t here, so on the
+    grid its mean is the grid's mean, (t0 + t_end) / 2, while the dropped frames skew the raw samples' mean."""
+    t, a = _walk(0.0)
+    keep = np.ones(len(t), bool)
+    keep[len(t) // 2:len(t) // 2 + 60] = False  # 2 s of frames lost in the second half
+    t, a = t[keep], a[keep]
+    absolute = np.column_stack([t, np.full(len(t), 2.0)])
+    ind = compute_indicators(t, a)
+    html = write_report(tmp_path / "report.html", t, a, ind, abs_angles_deg=absolute).read_text()
+    grid_mean = 0.5 * (t[0] + t[-1])
+    assert abs(np.mean(t) - grid_mean) > 0.05  # the raw samples' mean differs at the 3 decimals shown
+    assert f"<tr><td>pitch_abs mean [deg]</td><td>{grid_mean:.3f}</td></tr>" in html
+
+
 @pytest.mark.parametrize(
     ("content", "extra"),
     [(None, []), ("t,pitch,yaw\n0,1,2\n", []), ("t,pitch,yaw,roll\n0,1,x,2\n", []),

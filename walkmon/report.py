@@ -238,7 +238,7 @@ def render_report_html(
     *,
     abs_angles_deg: ArrayLike | None = None,
 ) -> str:
-    """The report as one HTML string (see :func:`write_report`)."""
+    """The report as one HTML string (see :func:`write_report`); ``abs_angles_deg`` (N, 2) at ``analysis.t_s``."""
     doc = indicators.to_dict()
     base = baseline.to_dict() if isinstance(baseline, Indicators) else baseline
     cls = doc["classification"]
@@ -320,6 +320,11 @@ def write_report(
             else IndicatorSettings(mode=indicators.mode)
         )
     analysis = analyze_gait(t_s, angles_deg, settings, reference_deg=reference_deg)
+    t_in = np.asarray(t_s, dtype=float)
+    if abs_angles_deg is not None and not np.array_equal(analysis.t_s, t_in):
+        # irregular time stamps (dropped frames): the analysis resampled the angles onto a uniform grid, and
+        # the absolute angles are plotted beside them, so they go onto the same grid
+        abs_angles_deg = np.column_stack([np.interp(analysis.t_s, t_in, abs_angles_deg[:, k]) for k in range(2)])
     text = render_report_html(analysis, indicators, baseline, meta, abs_angles_deg=abs_angles_deg)
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
