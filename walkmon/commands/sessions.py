@@ -140,10 +140,7 @@ def _delete(args: argparse.Namespace) -> int:
 def _prune(args: argparse.Namespace) -> int:
     from walkmon.session_log import list_sessions, prune_sessions  # noqa: PLC0415
 
-    if args.keep is not None and args.keep < 0:
-        msg = f"--keep must be >= 0, got {args.keep}"
-        raise ConfigError(msg)
-    data_dir = data_dir_of(args)
+    data_dir = data_dir_of(args)  # prune_sessions checks --older-than and --keep (one-line errors)
     before = {s.id: s for s in list_sessions(data_dir)}
     ids = prune_sessions(data_dir, args.older_than, keep=args.keep, dry_run=args.dry_run)
     verb = "would delete" if args.dry_run else "deleted"
