@@ -32,8 +32,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_fusion import BROAD_DEFAULT, inclination_deg, load_broad  # noqa: E402
 
-from walkmon.imu_analysis import rotation_matrices_from_quaternions_wxyz, vqf_attitude  # noqa: E402
-from walkmon.imu_attitude import HANDHELD_ATTITUDE_SETTINGS, AttitudeSettings, estimate_attitude  # noqa: E402
+from walkmon.imu.attitude import (  # noqa: E402
+    HANDHELD_ATTITUDE_SETTINGS,
+    AttitudeSettings,
+    estimate_attitude,
+)
+from walkmon.imu.recordings import rotation_matrices_from_quaternions_wxyz, vqf_attitude  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 GRID = {

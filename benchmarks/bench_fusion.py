@@ -32,13 +32,17 @@ from pathlib import Path
 
 import numpy as np
 
-from walkmon.consts import angles_deg_from_rotation, gravity_angles_deg_from_gravity, rotation_from_angles_deg
-from walkmon.fusion import FusionSettings, fuse_recording
-from walkmon.imu_analysis import read_imu_csv, rotation_matrices_from_quaternions_wxyz, vqf_attitude
-from walkmon.imu_attitude import HANDHELD_ATTITUDE_SETTINGS, estimate_attitude
-from walkmon.imu_analysis import rotation_matrices_from_quaternions_wxyz as _quat_to_R
-from walkmon.imu_extrinsics import estimate_extrinsics
-from walkmon.tables import read_table
+from walkmon.consts import (
+    angles_deg_from_rotation,
+    gravity_angles_deg_from_gravity,
+    rotation_from_angles_deg,
+)
+from walkmon.imu.attitude import HANDHELD_ATTITUDE_SETTINGS, estimate_attitude
+from walkmon.imu.extrinsics import estimate_extrinsics
+from walkmon.imu.fusion import FusionSettings, fuse_recording
+from walkmon.imu.recordings import rotation_matrices_from_quaternions_wxyz, vqf_attitude
+from walkmon.imu.recordings import rotation_matrices_from_quaternions_wxyz as _quat_to_R
+from walkmon.tables import read_imu_csv, read_table
 
 RESULTS = Path(__file__).resolve().parent / "results"
 #: ../shared/data/broad beside the checkout (as CI and the developers' machines lay it out), or WALKMON_BROAD.
@@ -68,9 +72,9 @@ def simulated(walk: str, seconds: float, seed: int, cache: Path) -> Path:
 def vision(d: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Frame times, start-relative rotations and 'measured' flags from the fast rotation estimator."""
     import cv2  # noqa: PLC0415
-
-    from walkmon.calibration import read_camera_yaml  # noqa: PLC0415
     from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
+
+    from walkmon.camera.model import read_camera_yaml  # noqa: PLC0415
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
 
     cv2.setNumThreads(1)

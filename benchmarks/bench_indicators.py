@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from walkmon.cli import main as walkmon_main
+from walkmon.commands.cli import main as walkmon_main
 from walkmon.consts import ANGLE_COLUMNS
-from walkmon.indicators import compute_indicators, read_indicators
+from walkmon.gait.indicators import compute_indicators, read_indicators
 from walkmon.simulate import GaitModel
 from walkmon.tables import read_table
 

@@ -51,7 +51,7 @@ if [ ! -e "$CONF_DIR/walkmon.toml" ]; then
 else
     echo "keeping existing $CONF_DIR/walkmon.toml"
 fi
-"$PREFIX/venv/bin/python" -c "from walkmon.config import read_config; read_config('$CONF_DIR/walkmon.toml')"
+"$PREFIX/venv/bin/python" -c "from walkmon.live.config import read_config; read_config('$CONF_DIR/walkmon.toml')"
 
 echo "== udev rule"
 install -m 0644 "$SRC_DIR/deploy/99-walkmon.rules" /etc/udev/rules.d/99-walkmon.rules

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from walkmon.calibration import CameraModel
+from walkmon.camera.model import CameraModel
 from walkmon.errors import SourceError
 
 __all__ = ["CameraSource", "Frame"]

@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 from walkmon.drivers.camera_base import CameraSource, Frame
+
 from walkmon.errors import InvalidInputError, SourceDisconnected, SourceError
 
 __all__ = ["FileCamera"]

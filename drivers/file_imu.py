@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import time
 
-from walkmon.consts import IMU_COLUMNS
 from walkmon.drivers.imu_types import ImuSample
+
+from walkmon.consts import IMU_COLUMNS
 from walkmon.errors import SourceDisconnected, SourceError
 
 __all__ = ["FileImu"]

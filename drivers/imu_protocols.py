@@ -35,8 +35,9 @@ import struct
 from dataclasses import dataclass, replace
 from typing import Protocol
 
-from walkmon.consts import GRAVITY_MS2
 from walkmon.drivers.imu_types import ImuSample, ParserStats
+
+from walkmon.consts import GRAVITY_MS2
 from walkmon.errors import ConfigError
 
 __all__ = [

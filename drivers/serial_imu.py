@@ -27,8 +27,14 @@ from dataclasses import dataclass
 from types import TracebackType
 from urllib.parse import parse_qsl, urlsplit
 
-from walkmon.drivers.imu_protocols import PROTOCOLS, CsvUnits, ImuParser, parser_for_protocol
+from walkmon.drivers.imu_protocols import (
+    PROTOCOLS,
+    CsvUnits,
+    ImuParser,
+    parser_for_protocol,
+)
 from walkmon.drivers.imu_types import ImuSample, ParserStats
+
 from walkmon.errors import ConfigError, SourceDisconnected, SourceError
 
 __all__ = [

@@ -14,8 +14,9 @@ import re
 import time
 from collections.abc import Iterator
 
-from walkmon.calibration import CameraModel
 from walkmon.drivers.camera_base import CameraSource, Frame
+
+from walkmon.camera.model import CameraModel
 from walkmon.errors import ConfigError, SourceDisconnected, SourceError
 
 __all__ = ["SimCamera", "script_seconds"]

@@ -13,7 +13,12 @@ from walkmon._checkout import map_checkout_drivers as _map_checkout_drivers
 
 _map_checkout_drivers(_Path(__file__).resolve().parent)  # `drivers/` is walkmon.drivers in a checkout too
 
-from walkmon.calibration import CameraModel, default_camera, read_camera_yaml, write_camera_yaml
+from walkmon.camera.model import (
+    CameraModel,
+    default_camera,
+    read_camera_yaml,
+    write_camera_yaml,
+)
 from walkmon.consts import (
     AXES,
     GRAVITY_MS2,
@@ -30,10 +35,21 @@ from walkmon.errors import (
     SourceTimeout,
     WalkmonError,
 )
-from walkmon.rotation import EstimateStatus, RotationEstimate, RotationEstimator, RotationSettings
-from walkmon.indicators import IndicatorSettings, Indicators, compute_indicators, read_indicators, write_indicators
-from walkmon.fusion import CameraImuFusion, FusionSettings
-from walkmon.imu_attitude import AttitudeSettings, ImuAttitudeFilter
+from walkmon.gait.indicators import (
+    Indicators,
+    IndicatorSettings,
+    compute_indicators,
+    read_indicators,
+    write_indicators,
+)
+from walkmon.imu.attitude import AttitudeSettings, ImuAttitudeFilter
+from walkmon.imu.fusion import CameraImuFusion, FusionSettings
+from walkmon.rotation import (
+    EstimateStatus,
+    RotationEstimate,
+    RotationEstimator,
+    RotationSettings,
+)
 
 __all__ = [
     "AXES",

@@ -1,7 +1,7 @@
 """Make a source checkout import like the installed package.
 
 setuptools installs the top-level ``drivers/`` folder as ``walkmon.drivers`` (``package-dir`` in pyproject.toml).
-When Python imports walkmon straight from a checkout instead (``python -m pytest`` or ``python -m walkmon.cli``
+When Python imports walkmon straight from a checkout instead (``python -m pytest`` or ``python -m walkmon.commands.cli``
 run in the repository root put the checkout first on ``sys.path``), there is no ``walkmon/drivers`` folder, and
 ``import walkmon.drivers`` would fail. This maps the same folder to the same name, as the installer does, and
 does nothing in an installed copy (where ``walkmon/drivers`` exists).

@@ -12,13 +12,18 @@ import csv
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from walkmon.consts import IMU_COLUMNS
 from walkmon.errors import InvalidInputError
 
-__all__ = ["read_table", "write_table"]
+if TYPE_CHECKING:
+    from walkmon.imu.recordings import ImuRecording
+
+__all__ = ["read_imu_csv", "read_table", "write_table"]
 
 
 def read_table(
@@ -111,3 +116,20 @@ def write_table(
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(names)
         writer.writerows(zip(*formatted, strict=True))
+
+
+def read_imu_csv(path: str | Path) -> ImuRecording:
+    """Read imu.csv (``t,gx,gy,gz,ax,ay,az``); malformed files raise InvalidInputError with one line."""
+    from walkmon.imu.recordings import ImuRecording  # noqa: PLC0415  (the IMU package does no I/O)
+
+    cols = read_table(path, IMU_COLUMNS)
+    t = cols["t"]
+    if len(t) < 10:
+        msg = f"{path}: only {len(t)} IMU samples; need at least 10"
+        raise InvalidInputError(msg)
+    if np.any(np.diff(t) <= 0):
+        msg = f"{path}: IMU timestamps must strictly increase"
+        raise InvalidInputError(msg)
+    gyro = np.column_stack([cols["gx"], cols["gy"], cols["gz"]])
+    accel = np.column_stack([cols["ax"], cols["ay"], cols["az"]])
+    return ImuRecording(t, gyro, accel)

@@ -44,7 +44,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_gait_arguments(p)  # --baseline, --mode: indicators.json + report.html (gait engineer)
     p.add_argument("--save", action="store_true", help="also record the result as a session in the session log")
     p.add_argument("--data-dir", metavar="DIR", help="session database folder for --save (default ~/.local/share/walkmon)")
-    from walkmon.imu_analysis import add_imu_arguments  # noqa: PLC0415
+    from walkmon.commands.imu_args import add_imu_arguments  # noqa: PLC0415
 
     add_imu_arguments(p)  # --imu [--imu-filter --imu-offset-s --imu-extrinsics]: IMU-only or fused (IMU engineer)
 
@@ -133,7 +133,7 @@ def status_summary(estimates) -> str:  # noqa: ANN001
 
 
 def run(args: argparse.Namespace) -> int:
-    from walkmon.calibration import default_camera, read_camera_yaml  # noqa: PLC0415
+    from walkmon.camera.model import default_camera, read_camera_yaml  # noqa: PLC0415
     from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
     from walkmon.tables import write_table  # noqa: PLC0415
@@ -143,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.imu:
             msg = "give a VIDEO, or --imu IMU_CSV for IMU-only analysis"
             raise InvalidInputError(msg)
-        from walkmon.imu_analysis import analyze_imu_only  # noqa: PLC0415
+        from walkmon.commands.imu_args import analyze_imu_only  # noqa: PLC0415
 
         t_s, angles_deg = analyze_imu_only(args, sys.stdout)
         from walkmon.tables import read_table  # noqa: PLC0415
@@ -169,7 +169,7 @@ def run(args: argparse.Namespace) -> int:
             progress.close()
     columns = angle_columns(estimates)
     if args.imu:  # camera-IMU fusion (IMU engineer): fused pitch/yaw/roll, + pitch_abs/roll_abs, *_video kept
-        from walkmon.imu_analysis import fuse_video_columns  # noqa: PLC0415
+        from walkmon.commands.imu_args import fuse_video_columns  # noqa: PLC0415
 
         measured = [e.status.is_measured for e in estimates]
         columns = fuse_video_columns(args, columns, measured, estimates[0].t_s, sys.stdout)
@@ -198,7 +198,7 @@ def _later_stages(args: argparse.Namespace, out_dir: Path, t_s, angles_deg, esti
                         abs_angles_deg=abs_angles_deg)
     sys.stdout.write(summary_line(*gait))
     if getattr(args, "save", False):  # live engineer: offline checks land in the same session history
-        from walkmon.session_log import default_data_dir, record_offline_session  # noqa: PLC0415
+        from walkmon.live.session_log import default_data_dir, record_offline_session  # noqa: PLC0415
 
         data_dir = Path(args.data_dir).expanduser() if args.data_dir else default_data_dir()
         # with an IMU, the frames' pitch_abs/roll_abs as 'walkmon live' stores them, so 'walkmon report ID'

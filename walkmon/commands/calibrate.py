@@ -77,8 +77,8 @@ def _images(source: Path, every: int) -> Iterator[NDArray[np.uint8]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from walkmon.calibration import write_camera_yaml  # noqa: PLC0415
-    from walkmon.chessboard import calibrate_chessboard  # noqa: PLC0415
+    from walkmon.camera.chessboard import calibrate_chessboard  # noqa: PLC0415
+    from walkmon.camera.model import write_camera_yaml  # noqa: PLC0415
 
     result = calibrate_chessboard(
         _images(Path(args.source), args.every), args.board, args.square_mm, distortion_model=args.model

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from walkmon.consts import AXES, ANGLE_COLUMNS, TRUTH_COLUMNS
+from walkmon.consts import ANGLE_COLUMNS, AXES, TRUTH_COLUMNS
 
 NAME = "demo"
 HELP = "simulate a walk and run the whole analysis on it (no hardware needed); prints where the report is"
@@ -30,7 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _step(argv: list[str]) -> None:
-    from walkmon.cli import main  # noqa: PLC0415  (the demo is a client of the CLI)
+    from walkmon.commands.cli import main  # noqa: PLC0415  (the demo is a client of the CLI)
 
     sys.stdout.write(f"\n$ walkmon {' '.join(argv)}\n")
     sys.stdout.flush()

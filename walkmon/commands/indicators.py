@@ -64,8 +64,13 @@ def gait_outputs(
 
     The one function ``walkmon analyze`` and ``walkmon indicators`` share (and ``walkmon demo`` may call).
     """
-    from walkmon.indicators import IndicatorSettings, compute_indicators, read_indicators, write_indicators  # noqa: PLC0415
-    from walkmon.report import write_report  # noqa: PLC0415
+    from walkmon.gait.indicators import (  # noqa: PLC0415
+        IndicatorSettings,
+        compute_indicators,
+        read_indicators,
+        write_indicators,
+    )
+    from walkmon.gait.report import write_report  # noqa: PLC0415
 
     settings = IndicatorSettings(mode=mode)
     baseline = read_indicators(baseline_path) if baseline_path else None

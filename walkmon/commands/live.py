@@ -58,8 +58,8 @@ def status_line(h: Any) -> str:
 
 
 def live_fusion_settings(imu: Any) -> Any:
-    """:class:`walkmon.fusion.LiveFusionSettings` from the config's ``[imu]`` section."""
-    from walkmon.fusion import FusionSettings, LiveFusionSettings  # noqa: PLC0415
+    """:class:`walkmon.imu.fusion.LiveFusionSettings` from the config's ``[imu]`` section."""
+    from walkmon.imu.fusion import FusionSettings, LiveFusionSettings  # noqa: PLC0415
 
     return LiveFusionSettings(
         fusion=FusionSettings(camera_from_imu=imu.camera_from_imu, time_offset_s=imu.time_offset_s),
@@ -127,8 +127,8 @@ class CameraAwareEstimator:
         self._est: Any = None
 
     def _build(self, frame: Any) -> Any:
-        from walkmon.calibration import default_camera  # noqa: PLC0415
-        from walkmon.pipeline import make_estimator  # noqa: PLC0415
+        from walkmon.camera.model import default_camera  # noqa: PLC0415
+        from walkmon.live.pipeline import make_estimator  # noqa: PLC0415
 
         h, w = frame.shape[:2]
         cam = self._calib or self._source.camera_model()
@@ -166,7 +166,7 @@ def _prune_old_sessions(db_path: Path, retention_days: float) -> None:
     is never pruned); a failure is logged and the session goes on (monitoring matters more than the disk)."""
     import sqlite3  # noqa: PLC0415
 
-    from walkmon.session_log import prune_sessions  # noqa: PLC0415
+    from walkmon.live.session_log import prune_sessions  # noqa: PLC0415
 
     try:
         ids = prune_sessions(db_path, retention_days)
@@ -178,15 +178,15 @@ def _prune_old_sessions(db_path: Path, retention_days: float) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from walkmon.alert_sinks import AlertSinks  # noqa: PLC0415
-    from walkmon.alerts import AlertStage  # noqa: PLC0415
-    from walkmon.calibration import read_camera_yaml  # noqa: PLC0415
-    from walkmon.config import DEFAULT_CONFIG, config_to_dict, read_config  # noqa: PLC0415
+    from walkmon.camera.model import read_camera_yaml  # noqa: PLC0415
     from walkmon.drivers.sources import open_camera, open_imu  # noqa: PLC0415
-    from walkmon.live_indicators import LiveIndicatorStage  # noqa: PLC0415
-    from walkmon.pipeline import LivePipeline  # noqa: PLC0415
-    from walkmon.sdnotify import Notifier  # noqa: PLC0415
-    from walkmon.session_log import SessionLog, default_data_dir  # noqa: PLC0415
+    from walkmon.gait.live import LiveIndicatorStage  # noqa: PLC0415
+    from walkmon.live.alerts import AlertStage  # noqa: PLC0415
+    from walkmon.live.config import DEFAULT_CONFIG, config_to_dict, read_config  # noqa: PLC0415
+    from walkmon.live.pipeline import LivePipeline  # noqa: PLC0415
+    from walkmon.live.sdnotify import Notifier  # noqa: PLC0415
+    from walkmon.live.session_log import SessionLog, default_data_dir  # noqa: PLC0415
+    from walkmon.live.sinks import AlertSinks  # noqa: PLC0415
 
     cfg = read_config(args.config) if args.config else DEFAULT_CONFIG
     cfg = dataclasses.replace(
@@ -208,7 +208,7 @@ def _run(args: argparse.Namespace) -> int:
         imu = None
     fusion = None
     if imu is not None:
-        from walkmon.fusion import LiveFusion  # noqa: PLC0415
+        from walkmon.imu.fusion import LiveFusion  # noqa: PLC0415
 
         fusion = LiveFusion(live_fusion_settings(cfg.imu))
     calib = read_camera_yaml(cfg.camera.calib) if cfg.camera.calib else None

@@ -23,9 +23,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from walkmon.commands.sessions import data_dir_of  # noqa: PLC0415
-    from walkmon.indicators import compute_indicators, read_indicators, write_indicators  # noqa: PLC0415
-    from walkmon.report import write_report  # noqa: PLC0415
-    from walkmon.session_log import open_database, read_session_table, session_record  # noqa: PLC0415
+    from walkmon.gait.indicators import (  # noqa: PLC0415
+        compute_indicators,
+        read_indicators,
+        write_indicators,
+    )
+    from walkmon.gait.report import write_report  # noqa: PLC0415
+    from walkmon.live.session_log import (  # noqa: PLC0415
+        open_database,
+        read_session_table,
+        session_record,
+    )
 
     conn = open_database(data_dir_of(args), create=False)
     try:

@@ -50,13 +50,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def data_dir_of(args: argparse.Namespace) -> Path:
-    from walkmon.session_log import default_data_dir  # noqa: PLC0415
+    from walkmon.live.session_log import default_data_dir  # noqa: PLC0415
 
     return Path(args.data_dir).expanduser() if getattr(args, "data_dir", None) else default_data_dir()
 
 
 def _list(args: argparse.Namespace) -> int:
-    from walkmon.session_log import list_sessions  # noqa: PLC0415
+    from walkmon.live.session_log import list_sessions  # noqa: PLC0415
 
     sessions = list_sessions(data_dir_of(args))
     out = sys.stdout
@@ -79,7 +79,11 @@ def _clean(col: str, values: list[Any]) -> list[Any]:
 
 def export_session(data_dir: Path, session_id: int, out_dir: Path, fmt: str = "csv") -> list[Path]:
     """Write every table of one session (+ session.json) to ``out_dir``; the written paths."""
-    from walkmon.session_log import open_database, read_session_table, session_record  # noqa: PLC0415
+    from walkmon.live.session_log import (  # noqa: PLC0415
+        open_database,
+        read_session_table,
+        session_record,
+    )
 
     if fmt == "parquet":
         try:
@@ -128,7 +132,7 @@ def _describe(sessions: dict[int, Any], ids: list[int]) -> str:
 
 
 def _delete(args: argparse.Namespace) -> int:
-    from walkmon.session_log import delete_sessions, list_sessions  # noqa: PLC0415
+    from walkmon.live.session_log import delete_sessions, list_sessions  # noqa: PLC0415
 
     data_dir = data_dir_of(args)
     before = {s.id: s for s in list_sessions(data_dir)}
@@ -138,7 +142,7 @@ def _delete(args: argparse.Namespace) -> int:
 
 
 def _prune(args: argparse.Namespace) -> int:
-    from walkmon.session_log import list_sessions, prune_sessions  # noqa: PLC0415
+    from walkmon.live.session_log import list_sessions, prune_sessions  # noqa: PLC0415
 
     data_dir = data_dir_of(args)  # prune_sessions checks --older-than and --keep (one-line errors)
     before = {s.id: s for s in list_sessions(data_dir)}

@@ -8,7 +8,12 @@ truth_angles_deg)`` in memory.
 from __future__ import annotations
 
 from walkmon.simulate.gait import STANDING_S, WALK_TYPES, GaitModel, parse_walk_script
-from walkmon.simulate.imu import DEFAULT_IMU_SETTINGS, ImuSamples, ImuSettings, simulate_imu
+from walkmon.simulate.imu import (
+    DEFAULT_IMU_SETTINGS,
+    ImuSamples,
+    ImuSettings,
+    simulate_imu,
+)
 from walkmon.simulate.render import DEFAULT_RENDER_SETTINGS, Renderer, RenderSettings
 from walkmon.simulate.session import (
     SimulatedSession,

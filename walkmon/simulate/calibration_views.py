@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from walkmon.calibration import CameraModel
+from walkmon.camera.model import CameraModel
 from walkmon.consts import rotation_from_angles_deg
 from walkmon.errors import InvalidInputError
 from walkmon.simulate.render import pixel_rays

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from walkmon.calibration import CameraModel
+from walkmon.camera.model import CameraModel
 from walkmon.errors import ConfigError
 from walkmon.simulate.scene import StreetScene, Texture
 

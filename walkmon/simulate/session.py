@@ -20,11 +20,16 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from walkmon.calibration import CameraModel, default_camera, write_camera_yaml
+from walkmon.camera.model import CameraModel, default_camera, write_camera_yaml
 from walkmon.consts import TRUTH_COLUMNS
 from walkmon.errors import InvalidInputError
 from walkmon.simulate.gait import STANDING_S, GaitModel
-from walkmon.simulate.imu import DEFAULT_IMU_SETTINGS, ImuSamples, ImuSettings, simulate_imu
+from walkmon.simulate.imu import (
+    DEFAULT_IMU_SETTINGS,
+    ImuSamples,
+    ImuSettings,
+    simulate_imu,
+)
 from walkmon.simulate.render import DEFAULT_RENDER_SETTINGS, Renderer, RenderSettings
 from walkmon.simulate.scene import StreetScene, build_street_scene
 from walkmon.tables import write_table

@@ -1,0 +1,79 @@
+"""Config: TOML round trip, unknown keys and bad values rejected, the example config parses."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from walkmon.errors import ConfigError
+from walkmon.live.config import (
+    DEFAULT_CONFIG,
+    Config,
+    config_from_dict,
+    config_to_toml,
+    read_config,
+)
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_round_trip_of_defaults_and_of_changed_values(tmp_path: Path) -> None:
+    changed = dataclasses.replace(
+        DEFAULT_CONFIG,
+        camera=dataclasses.replace(DEFAULT_CONFIG.camera, url='file:/tmp/a "b".mp4?realtime=1'),
+        alerts=dataclasses.replace(DEFAULT_CONFIG.alerts, delay_s=3.0, enabled=("lean_forward",)),
+        sinks=dataclasses.replace(DEFAULT_CONFIG.sinks, hook_command=("/bin/sh", "-c", "cat > x"), sound=True),
+        indicators=dataclasses.replace(DEFAULT_CONFIG.indicators, gait_band_hz=(0.5, 4.0)),
+        pipeline=dataclasses.replace(DEFAULT_CONFIG.pipeline, queue_size=7),
+    )
+    for cfg in (DEFAULT_CONFIG, changed):
+        p = tmp_path / "c.toml"
+        p.write_text(config_to_toml(cfg))
+        assert read_config(p) == cfg
+    assert changed != DEFAULT_CONFIG
+
+
+def test_example_config_parses_and_is_complete() -> None:
+    cfg = read_config(REPO / "deploy" / "walkmon.toml")
+    assert isinstance(cfg, Config)
+    # every key of every section is spelled out in the example (so it documents all of them)
+    text = (REPO / "deploy" / "walkmon.toml").read_text()
+    for f in dataclasses.fields(Config):
+        assert f"[{f.name}]" in text
+        for g in dataclasses.fields(getattr(DEFAULT_CONFIG, f.name)):
+            assert f"\n{g.name} =" in text, (f.name, g.name)
+
+
+@pytest.mark.parametrize(
+    ("data", "match"),
+    [
+        ({"camra": {}}, "unknown config section"),
+        ({"alerts": {"delay": 3}}, r"unknown key\(s\) delay"),
+        ({"alerts": {"delay_s": "soon"}}, "alerts.delay_s: expected float"),
+        ({"alerts": {"delay_s": -1.0}}, "delay_s must be >= 0"),
+        ({"alerts": {"enabled": ["lean_backward"]}}, "unknown condition"),
+        ({"pipeline": {"queue_size": 2.5}}, "expected int"),
+        ({"session": {"log_frames": 1}}, "expected bool"),
+        ({"rotation": {"method": "slow"}}, "fast' or 'paper"),
+        ({"indicators": {"gait_band_hz": [1.0]}}, "gait_band_hz"),
+        ({"camera": "v4l2:/dev/video0"}, "must be a table"),
+    ],
+)
+def test_bad_config_is_one_clear_config_error(data: dict, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        config_from_dict(data)
+
+
+def test_read_config_errors_name_the_file(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="no such config file"):
+        read_config(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[alerts\ndelay_s = 1\n")
+    with pytest.raises(ConfigError, match="invalid TOML"):
+        read_config(bad)
+    unknown = tmp_path / "unknown.toml"
+    unknown.write_text("[alerts]\nfoo = 1\n")
+    with pytest.raises(ConfigError, match="unknown.toml"):
+        read_config(unknown)

@@ -1,0 +1,154 @@
+"""Two-view geometry on synthetic scenes with a known rotation (kornia-style): points in front of the camera,
+projected into both views, with pixel noise and outliers; the estimated rotation must be within tight bounds."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from walkmon.consts import rotation_from_angles_deg
+from walkmon.errors import InvalidInputError
+from walkmon.rotation import geometry as geo
+
+FOCAL_PX = 457.0  # 640 px wide, 70 degree HFOV
+
+
+def make_scene(R, c, *, n=150, depth_m=(2.0, 10.0), noise_px=0.3, outlier_fraction=0.0, seed=0, ground=False):
+    """Matched homogeneous normalised points (q0, q1): view 1 has orientation R and centre c in view 0."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-1, 1, (n, 2)) * np.array([0.7, 0.5])
+    if ground:  # only the lower half of the image, as when the walker bends and sees the ground
+        xy[:, 1] = np.abs(xy[:, 1]) + 0.05
+    X = np.c_[xy, np.ones(n)] * rng.uniform(*depth_m, (n, 1))
+    q0 = X / X[:, 2:3]
+    X1 = (X - np.asarray(c)) @ np.asarray(R)  # R.T (X - c), row-wise
+    q1 = X1 / X1[:, 2:3]
+    q0[:, :2] += rng.normal(0, noise_px / FOCAL_PX, (n, 2))
+    q1[:, :2] += rng.normal(0, noise_px / FOCAL_PX, (n, 2))
+    k = int(outlier_fraction * n)
+    q1[:k, :2] += rng.uniform(-0.1, 0.1, (k, 2))  # up to ~45 px off
+    return q0, q1
+
+
+def angle_error_deg(A, B) -> float:
+    return geo.rotation_angle_deg(np.asarray(A).T @ np.asarray(B))
+
+
+def choose(q0, q1, sigma_px=0.5):
+    """The model GRIC prefers and its rotation, as the fast method decides."""
+    rot = geo.rotation_only_fit(q0, q1, FOCAL_PX)
+    pose = geo.refine_relative_pose(q0, q1, FOCAL_PX, rot.rotation)
+    mask = rot.inliers | pose.inliers
+    g_rot = geo.gric(rot.residuals_px[mask], sigma_px, 2, 3)
+    g_ess = geo.gric(pose.residuals_px[mask], sigma_px, 3, 5)
+    return ("essential", pose.rotation) if g_ess < g_rot else ("rotation", rot.rotation)
+
+
+def test_kabsch_matches_scipy_align_vectors():
+    rng = np.random.default_rng(3)
+    R = Rotation.from_rotvec(rng.normal(size=3) * 0.3).as_matrix()
+    b1 = rng.normal(size=(40, 3))
+    b0 = b1 @ R.T + rng.normal(0, 0.01, (40, 3))
+    ours = geo.rotation_from_bearings(b0, b1)
+    b0n = b0 / np.linalg.norm(b0, axis=1, keepdims=True)
+    b1n = b1 / np.linalg.norm(b1, axis=1, keepdims=True)
+    ref, _ = Rotation.align_vectors(b0n, b1n)
+    assert angle_error_deg(ours, ref.as_matrix()) < 1e-4
+
+
+def test_rotvec_matches_scipy():
+    v = np.array([0.1, -0.2, 0.3])
+    assert np.allclose(geo.rotation_from_rotvec(v), Rotation.from_rotvec(v).as_matrix(), atol=1e-12)
+
+
+def test_pure_rotation_is_exact_and_gric_picks_rotation():
+    R = rotation_from_angles_deg(1.0, -2.0, 0.5)
+    q0, q1 = make_scene(R, np.zeros(3), outlier_fraction=0.2)
+    rot = geo.rotation_only_fit(q0, q1, FOCAL_PX)
+    assert angle_error_deg(rot.rotation, R) < 0.02
+    assert rot.inliers[30:].mean() > 0.95  # the clean points are inliers
+    assert rot.inliers[:30].mean() < 0.2  # the outliers are not
+    model, R_est = choose(q0, q1)
+    assert model == "rotation"
+    assert angle_error_deg(R_est, R) < 0.02
+
+
+def test_zero_motion_gives_identity():
+    q0, q1 = make_scene(np.eye(3), np.zeros(3), seed=1)
+    model, R_est = choose(q0, q1)
+    assert model == "rotation"
+    assert geo.rotation_angle_deg(R_est) < 0.01
+
+
+def test_forward_walking_needs_the_essential_model():
+    R = rotation_from_angles_deg(0.5, 0.3, -0.4)
+    c = np.array([0.02, 0.01, 0.3])  # 30 cm forward, as between keyframes ~8 frames apart
+    q0, q1 = make_scene(R, c, depth_m=(1.5, 6.0), outlier_fraction=0.2, seed=2, ground=True)
+    rot = geo.rotation_only_fit(q0, q1, FOCAL_PX)
+    model, R_est = choose(q0, q1)
+    assert model == "essential"
+    assert angle_error_deg(R_est, R) < 0.1
+    # the rotation-only model is visibly biased by the parallax: that is why the selection matters
+    assert angle_error_deg(rot.rotation, R) > 5 * angle_error_deg(R_est, R)
+
+
+def test_essential_refinement_recovers_baseline_direction():
+    R = rotation_from_angles_deg(-1.0, 2.0, 0.5)
+    c = np.array([0.1, -0.05, 1.0])
+    q0, q1 = make_scene(R, c, depth_m=(2.0, 8.0), noise_px=0.2, seed=4)
+    pose = geo.refine_relative_pose(q0, q1, FOCAL_PX, np.eye(3))
+    assert angle_error_deg(pose.rotation, R) < 0.03
+    assert abs(abs(pose.centre @ c / np.linalg.norm(c)) - 1.0) < 1e-3
+
+
+def test_distant_scene_uses_rotation_model():
+    R = rotation_from_angles_deg(2.0, 1.0, 1.0)
+    q0, q1 = make_scene(R, np.array([0.0, 0.0, 0.04]), depth_m=(50.0, 100.0), outlier_fraction=0.2, seed=5)
+    model, R_est = choose(q0, q1)
+    assert model == "rotation"
+    assert angle_error_deg(R_est, R) < 0.02
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_low_parallax_decomposition_never_flips(seed):
+    """Plain RANSAC + decomposition offers a ~180 degree candidate; the nearest-rotation choice never takes it."""
+    R = rotation_from_angles_deg(0.3, -0.2, 0.1)
+    q0, q1 = make_scene(R, np.array([0.0, 0.0, 0.01]), seed=10 + seed)
+    E, mask = geo.essential_ransac(q0, q1, FOCAL_PX)
+    assert E is not None and mask.sum() > 20
+    candidates = geo.orientation_candidates_from_essential(E)
+    assert max(geo.rotation_angle_deg(C) for C in candidates) > 90  # the flip exists
+    chosen = geo.select_nearest_rotation(candidates, np.eye(3))
+    assert geo.rotation_angle_deg(chosen) < 5.0
+
+
+def test_refine_stays_in_small_rotation_basin_at_zero_parallax():
+    R = rotation_from_angles_deg(0.2, 0.1, -0.3)
+    q0, q1 = make_scene(R, np.zeros(3), seed=6)
+    pose = geo.refine_relative_pose(q0, q1, FOCAL_PX, np.eye(3))
+    assert geo.rotation_angle_deg(pose.rotation) < 2.0
+
+
+def test_gric_formula_by_hand():
+    e = np.array([0.0, 1.0, 10.0])
+    # rotation model: d=2, k=3, r=4: rho caps at 2*(4-2)=4
+    expected = (0 + 4 + 4) + math.log(4) * 2 * 3 + math.log(12) * 3
+    assert geo.gric(e, 0.5, 2, 3) == pytest.approx(expected)
+
+
+def test_too_few_points_raise_invalid_input():
+    q = np.c_[np.zeros((4, 2)), np.ones(4)]
+    with pytest.raises(InvalidInputError, match="at least 5"):
+        geo.refine_relative_pose(q, q, FOCAL_PX, np.eye(3))
+    with pytest.raises(InvalidInputError, match="at least 2"):
+        geo.rotation_only_fit(q[:1], q[:1], FOCAL_PX)
+    E, mask = geo.essential_ransac(q, q, FOCAL_PX)
+    assert E is None and not mask.any()
+
+
+def test_shape_mismatch_is_reported_with_both_shapes():
+    with pytest.raises(InvalidInputError, match=r"\(5, 2\).*\(4, 2\)"):
+        geo.rotation_only_fit(np.zeros((5, 2)), np.zeros((4, 2)), FOCAL_PX)

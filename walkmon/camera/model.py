@@ -1,0 +1,244 @@
+"""Camera intrinsics: the ROS ``camera_info`` YAML format, a documented default, and chessboard calibration.
+
+The file format is the one ROS ``camera_calibration`` writes::
+
+    image_width: 640
+    image_height: 480
+    camera_name: walkmon_sim
+    camera_matrix: {rows: 3, cols: 3, data: [fx, 0, cx, 0, fy, cy, 0, 0, 1]}
+    distortion_model: plumb_bob          # or equidistant (fisheye: k1..k4)
+    distortion_coefficients: {rows: 1, cols: 5, data: [k1, k2, p1, p2, k3]}
+
+Extra keys ROS writes (``rectification_matrix``, ``projection_matrix``) are accepted and ignored on read, and
+written on write so ROS tools can read walkmon's files.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from walkmon.errors import ConfigError
+
+__all__ = [
+    "DEFAULT_HFOV_DEG",
+    "DISTORTION_MODELS",
+    "CameraModel",
+    "default_camera",
+    "read_camera_yaml",
+    "write_camera_yaml",
+]
+
+#: Horizontal field of view assumed for an unknown camera (a typical USB webcam / OAK colour camera at 4:3).
+DEFAULT_HFOV_DEG = 70.0
+
+#: Supported distortion models and how many coefficients each takes.
+DISTORTION_MODELS = {"plumb_bob": (4, 5, 8, 12, 14), "equidistant": (4,)}
+
+
+@dataclass(frozen=True, slots=True)
+class CameraModel:
+    """Pinhole intrinsics plus lens distortion, in pixels.
+
+    ``camera_matrix`` is ``[[fx, 0, cx], [0, fy, cy], [0, 0, 1]]``. ``distortion_model`` is ``plumb_bob``
+    (OpenCV's radial-tangential ``k1 k2 p1 p2 [k3 ...]``) or ``equidistant`` (OpenCV fisheye ``k1..k4``).
+    """
+
+    width_px: int
+    height_px: int
+    camera_matrix: NDArray[np.float64]
+    distortion_model: str = "plumb_bob"
+    distortion_coefficients: NDArray[np.float64] = field(default_factory=lambda: np.zeros(5))
+    name: str = "camera"
+
+    def __post_init__(self) -> None:
+        K = np.array(self.camera_matrix, dtype=float)
+        d = np.array(self.distortion_coefficients, dtype=float).ravel()
+        if K.shape != (3, 3):
+            msg = f"camera_matrix must be 3x3, got shape {K.shape}"
+            raise ConfigError(msg)
+        if not (np.all(np.isfinite(K)) and K[0, 0] > 0 and K[1, 1] > 0 and abs(K[2, 2] - 1.0) < 1e-9):
+            msg = "camera_matrix must be finite with fx > 0, fy > 0 and K[2,2] == 1"
+            raise ConfigError(msg)
+        if self.width_px <= 0 or self.height_px <= 0:
+            msg = f"image size must be positive, got {self.width_px}x{self.height_px}"
+            raise ConfigError(msg)
+        if self.distortion_model not in DISTORTION_MODELS:
+            msg = f"distortion_model must be one of {sorted(DISTORTION_MODELS)}, got {self.distortion_model!r}"
+            raise ConfigError(msg)
+        if d.size not in DISTORTION_MODELS[self.distortion_model] or not np.all(np.isfinite(d)):
+            msg = (
+                f"{self.distortion_model} takes {DISTORTION_MODELS[self.distortion_model]} finite coefficients, "
+                f"got {d.size}"
+            )
+            raise ConfigError(msg)
+        K.setflags(write=False)
+        d.setflags(write=False)
+        object.__setattr__(self, "camera_matrix", K)
+        object.__setattr__(self, "distortion_coefficients", d)
+
+    @property
+    def fx(self) -> float:
+        return float(self.camera_matrix[0, 0])
+
+    @property
+    def fy(self) -> float:
+        return float(self.camera_matrix[1, 1])
+
+    @property
+    def cx(self) -> float:
+        return float(self.camera_matrix[0, 2])
+
+    @property
+    def cy(self) -> float:
+        return float(self.camera_matrix[1, 2])
+
+    @property
+    def has_distortion(self) -> bool:
+        return bool(np.any(self.distortion_coefficients != 0.0))
+
+    @property
+    def hfov_deg(self) -> float:
+        return math.degrees(2.0 * math.atan2(self.width_px / 2.0, self.fx))
+
+    def scaled_to(self, width_px: int, height_px: int) -> CameraModel:
+        """The same lens at another resolution (e.g. a camera streaming at a different size)."""
+        sx, sy = width_px / self.width_px, height_px / self.height_px
+        K = self.camera_matrix.copy()
+        K[0, :] *= sx
+        K[1, :] *= sy
+        return CameraModel(width_px, height_px, K, self.distortion_model, self.distortion_coefficients, self.name)
+
+    def normalized_from_pixels(self, points_px: ArrayLike) -> NDArray[np.float64]:
+        """Undistorted normalised image coordinates (x/z, y/z) of pixel positions; shape (N, 2)."""
+        import cv2  # noqa: PLC0415  (keep `import walkmon.camera.model` light)
+
+        pts = np.asarray(points_px, dtype=np.float64).reshape(-1, 1, 2)
+        if pts.shape[0] == 0:
+            return np.zeros((0, 2))
+        if self.distortion_model == "equidistant":
+            out = cv2.fisheye.undistortPoints(pts, self.camera_matrix, self.distortion_coefficients)
+        else:
+            out = cv2.undistortPoints(pts, self.camera_matrix, self.distortion_coefficients)
+        return out.reshape(-1, 2)
+
+    def pixels_from_camera_points(self, points_cam: ArrayLike) -> NDArray[np.float64]:
+        """Project 3-D points in the camera frame (z forward) to distorted pixel positions; shape (N, 2)."""
+        import cv2  # noqa: PLC0415
+
+        P = np.asarray(points_cam, dtype=np.float64).reshape(-1, 1, 3)
+        if P.shape[0] == 0:
+            return np.zeros((0, 2))
+        zero = np.zeros(3)
+        if self.distortion_model == "equidistant":
+            out, _ = cv2.fisheye.projectPoints(P, zero, zero, self.camera_matrix, self.distortion_coefficients)
+        else:
+            out, _ = cv2.projectPoints(P, zero, zero, self.camera_matrix, self.distortion_coefficients)
+        return out.reshape(-1, 2)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ROS camera_info YAML mapping."""
+        d = [float(v) for v in self.distortion_coefficients]
+        P = np.hstack([self.camera_matrix, np.zeros((3, 1))])
+        return {
+            "image_width": int(self.width_px),
+            "image_height": int(self.height_px),
+            "camera_name": self.name,
+            "camera_matrix": {"rows": 3, "cols": 3, "data": [float(v) for v in self.camera_matrix.ravel()]},
+            "distortion_model": self.distortion_model,
+            "distortion_coefficients": {"rows": 1, "cols": len(d), "data": d},
+            "rectification_matrix": {"rows": 3, "cols": 3, "data": [float(v) for v in np.eye(3).ravel()]},
+            "projection_matrix": {"rows": 3, "cols": 4, "data": [float(v) for v in P.ravel()]},
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any, *, source: str = "calibration") -> CameraModel:
+        """Parse a ROS camera_info mapping; every problem raises :class:`ConfigError` naming ``source``."""
+        if not isinstance(data, dict):
+            msg = f"{source}: expected a ROS camera_info mapping, got {type(data).__name__}"
+            raise ConfigError(msg)
+        try:
+            width, height = int(data["image_width"]), int(data["image_height"])
+            K = _matrix(data["camera_matrix"], 3, 3, "camera_matrix")
+            model = str(data.get("distortion_model", "plumb_bob"))
+            dist_entry = data.get("distortion_coefficients", {"data": [0.0] * 5})
+            dist = np.asarray(_data_list(dist_entry, "distortion_coefficients"), dtype=float)
+            name = str(data.get("camera_name", "camera"))
+        except KeyError as exc:
+            msg = f"{source}: missing key {exc.args[0]!r}"
+            raise ConfigError(msg) from None
+        except (TypeError, ValueError) as exc:
+            msg = f"{source}: {exc}"
+            raise ConfigError(msg) from None
+        try:
+            return cls(width, height, K, model, dist, name)
+        except ConfigError as exc:
+            msg = f"{source}: {exc}"
+            raise ConfigError(msg) from None
+
+
+def _data_list(entry: Any, key: str) -> list[float]:
+    if isinstance(entry, dict):
+        entry = entry.get("data")
+    if not isinstance(entry, list):
+        msg = f"{key} must be a list or a mapping with 'data'"
+        raise TypeError(msg)
+    return [float(v) for v in entry]
+
+
+def _matrix(entry: Any, rows: int, cols: int, key: str) -> NDArray[np.float64]:
+    values = _data_list(entry, key)
+    if len(values) != rows * cols:
+        msg = f"{key} needs {rows * cols} values, got {len(values)}"
+        raise ValueError(msg)
+    return np.asarray(values, dtype=float).reshape(rows, cols)
+
+
+def default_camera(width_px: int = 640, height_px: int = 480, hfov_deg: float = DEFAULT_HFOV_DEG) -> CameraModel:
+    """Intrinsics for an unknown camera: square pixels, principal point at the centre, no distortion.
+
+    ``fx = fy = (width / 2) / tan(hfov / 2)``, with the horizontal field of view defaulting to
+    :data:`DEFAULT_HFOV_DEG` (70°, typical of USB webcams and the OAK-D colour camera at 4:3). Rotation angles
+    scale roughly with the focal length error, so a real calibration (``walkmon calibrate``) is better.
+    """
+    if not 1.0 < hfov_deg < 179.0:
+        msg = f"horizontal field of view must be in (1, 179) degrees, got {hfov_deg}"
+        raise ConfigError(msg)
+    f = (width_px / 2.0) / math.tan(math.radians(hfov_deg) / 2.0)
+    K = np.array([[f, 0.0, (width_px - 1) / 2.0], [0.0, f, (height_px - 1) / 2.0], [0.0, 0.0, 1.0]])
+    return CameraModel(width_px, height_px, K, "plumb_bob", np.zeros(5), "default")
+
+
+def read_camera_yaml(path: str | Path) -> CameraModel:
+    """Read a ROS camera_info YAML file. Missing, unreadable or malformed files raise :class:`ConfigError`."""
+    import yaml  # noqa: PLC0415
+
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        msg = f"cannot read calibration file {p}: {exc.strerror or exc}"
+        raise ConfigError(msg) from None
+    except UnicodeDecodeError:
+        msg = f"calibration file {p} is not text"
+        raise ConfigError(msg) from None
+    # ROS's camera_calibration writes OpenCV-style "%YAML:1.0" headers sometimes; tolerate them.
+    text = "\n".join(line for line in text.splitlines() if not line.startswith("%YAML"))
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        msg = f"calibration file {p} is not valid YAML: {str(exc).splitlines()[0]}"
+        raise ConfigError(msg) from None
+    return CameraModel.from_dict(data, source=str(p))
+
+
+def write_camera_yaml(camera: CameraModel, path: str | Path) -> None:
+    """Write ``camera`` as a ROS camera_info YAML file."""
+    import yaml  # noqa: PLC0415
+
+    Path(path).write_text(yaml.safe_dump(camera.to_dict(), sort_keys=False), encoding="utf-8")

@@ -1,0 +1,224 @@
+"""Walk classification from indicators, following the paper's reasoning (Sec. 5.2).
+
+The paper compares a walk with the same person's normal walk (Table 3):
+
+* bend walk: the pitch axis is inclined downward -> pitch extremums and pitch inclination lower;
+* left shoulder down: the trunk tilts to the left -> roll inclination lower (and pitch somewhat lower too);
+* right foot drag: "the whole body is not well balanced" -> the swings of all axes much larger.
+
+:func:`classify` applies that reasoning in a fixed order (foot drag, then left shoulder down, then bend) with
+either relative thresholds (when a baseline, the person's normal walk, is given) or absolute default thresholds
+(no baseline; meaningful for walkmon-mode indicators, whose inclinations are referenced to the upright standing
+stance). Everything works on indicators.json dictionaries, so a document from disk or the paper's Table 3
+classifies the same way.
+
+Default thresholds (degrees; see :class:`PostureThresholds`):
+
+=====================================  ==========  =================================================================
+rule                                   no baseline with a baseline (differences walk - baseline)
+=====================================  ==========  =================================================================
+right_foot_drag: total swing           >= 16 deg   >= 2.0 x the baseline's total swing (pitch + yaw + roll)
+left_shoulder_down: roll inclination   <= -3 deg   drops by >= T_r, and by >= 0.3 x the pitch inclination's drop
+bend: pitch inclination                <= -8 deg   drops by >= T_p, and pitch lmax and lmin both drop
+normal: everything inside              |rho| < 3   total swing ratio in [0.5, 2), |d rho_p| < T_p, |d rho_r| < T_r
+=====================================  ==========  =================================================================
+
+With a baseline the inclination thresholds scale with the person's own sway, because an inclination change
+small against the natural swing of that axis is within walk-to-walk variability:
+``T_r = max(0.3 deg, 0.4 x baseline roll swing)`` and ``T_p = max(0.5 deg, 0.6 x baseline pitch swing)``.
+On the paper's Table 3 (swings ~1 deg) that gives T_r = 0.41 and T_p = 0.82 deg; on a simulated normal walk
+(swings 2-4 deg) about 1-1.7 deg, above the +-0.5 deg posture offsets the simulator draws for normal walks.
+
+Anything else (e.g. leaning right or backward) is ``unclassified``, with the reasons saying what was seen.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from walkmon.errors import ConfigError
+
+__all__ = [
+    "DEFAULT_POSTURE_THRESHOLDS",
+    "Classification",
+    "LABELS",
+    "PostureThresholds",
+    "classify",
+]
+
+_log = logging.getLogger(__name__)
+
+LABELS = ("normal", "left_shoulder_down", "right_foot_drag", "bend", "unclassified")
+
+
+@dataclass(frozen=True, slots=True)
+class Classification:
+    """A walk label (normal, left_shoulder_down, right_foot_drag, bend, unclassified) and why."""
+
+    label: str = "unclassified"
+    reasons: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"label": self.label, "reasons": list(self.reasons)}
+
+
+@dataclass(frozen=True, slots=True)
+class PostureThresholds:
+    """Classification thresholds, degrees unless stated (see the module table)."""
+
+    # absolute (no baseline)
+    drag_total_swing_deg: float = 16.0
+    left_roll_inclination_deg: float = -3.0
+    bend_pitch_inclination_deg: float = -8.0
+    normal_max_inclination_deg: float = 3.0
+    # relative (with a baseline)
+    drag_swing_ratio: float = 2.0
+    left_roll_drop_deg: float = 0.3
+    left_roll_drop_swing_fraction: float = 0.4
+    left_roll_vs_pitch: float = 0.3
+    bend_pitch_drop_deg: float = 0.5
+    bend_pitch_drop_swing_fraction: float = 0.6
+    normal_min_swing_ratio: float = 0.5
+
+    def __post_init__(self) -> None:
+        for name in self.__dataclass_fields__:
+            if not math.isfinite(getattr(self, name)):
+                msg = f"posture threshold {name} must be finite, got {getattr(self, name)}"
+                raise ConfigError(msg)
+        if self.drag_swing_ratio <= 1 or self.left_roll_drop_deg <= 0 or self.bend_pitch_drop_deg <= 0:
+            msg = "drag_swing_ratio must be > 1 and the drop thresholds > 0"
+            raise ConfigError(msg)
+
+
+DEFAULT_POSTURE_THRESHOLDS = PostureThresholds()
+
+
+def _axis(doc: Mapping[str, Any], axis: str, key: str) -> float:
+    v = doc.get("axes", {}).get(axis, {}).get(key)
+    return float("nan") if v is None else float(v)
+
+
+def _total_swing(doc: Mapping[str, Any]) -> float:
+    return sum(_axis(doc, a, "swing_mean") for a in ("pitch", "yaw", "roll"))
+
+
+def classify(
+    indicators: Mapping[str, Any],
+    baseline: Mapping[str, Any] | None = None,
+    thresholds: PostureThresholds = DEFAULT_POSTURE_THRESHOLDS,
+) -> Any:
+    """Label and reasons for an indicators.json dict (optionally against a baseline dict).
+
+    Returns a :class:`Classification`.
+    """
+    status = indicators.get("status", "ok")
+    if status != "ok":
+        return Classification("unclassified", (f"indicators not usable (status {status})",))
+    values = [_axis(indicators, a, k) for a in ("pitch", "roll") for k in ("swing_mean", "inclination_mean")]
+    if not all(math.isfinite(v) for v in values):
+        return Classification("unclassified", ("pitch or roll indicators missing (no full gait cycle)",))
+    if baseline is not None:
+        label, reasons = _relative(indicators, baseline, thresholds)
+    else:
+        label, reasons = _absolute(indicators, thresholds)
+    _log.debug("classified %s: %s", label, "; ".join(reasons))
+    return Classification(label, tuple(reasons))
+
+
+def _extras(doc: Mapping[str, Any]) -> list[str]:
+    notes = []
+    asym = doc.get("asymmetry") or {}
+    ratio = asym.get("step_time_ratio")
+    if ratio is not None and math.isfinite(ratio) and ratio >= 1.1:
+        notes.append(f"alternating step times differ by a factor {ratio:.2f} (limp / dragged foot)")
+    ratio = asym.get("step_swing_ratio")
+    if ratio is not None and math.isfinite(ratio) and ratio >= 1.3:
+        notes.append(f"alternating step swings differ by a factor {ratio:.2f}")
+    cadence = doc.get("cadence_spm")
+    if cadence is not None and math.isfinite(cadence) and cadence < 95:
+        notes.append(f"slow cadence {cadence:.0f} steps/min")
+    return notes
+
+
+def _absolute(doc: Mapping[str, Any], th: PostureThresholds) -> tuple[str, list[str]]:
+    rho_p, rho_r = _axis(doc, "pitch", "inclination_mean"), _axis(doc, "roll", "inclination_mean")
+    total = _total_swing(doc)
+    if math.isfinite(total) and total >= th.drag_total_swing_deg:
+        reasons = [
+            f"total swing {total:.1f} deg (pitch {_axis(doc, 'pitch', 'swing_mean'):.1f}, yaw "
+            f"{_axis(doc, 'yaw', 'swing_mean'):.1f}, roll {_axis(doc, 'roll', 'swing_mean'):.1f}) >= "
+            f"{th.drag_total_swing_deg:g} deg: poor balance, as in the paper's right foot drag walk",
+            *_extras(doc),
+        ]
+        return "right_foot_drag", reasons
+    if rho_r <= th.left_roll_inclination_deg:
+        return "left_shoulder_down", [
+            f"roll inclination {rho_r:.1f} deg <= {th.left_roll_inclination_deg:g} deg: trunk tilted to the left",
+            f"pitch inclination {rho_p:.1f} deg",
+        ]
+    if rho_p <= th.bend_pitch_inclination_deg:
+        return "bend", [
+            f"pitch inclination {rho_p:.1f} deg <= {th.bend_pitch_inclination_deg:g} deg: trunk bent forward",
+            f"pitch extremums {_axis(doc, 'pitch', 'lmax_mean'):.1f} / {_axis(doc, 'pitch', 'lmin_mean'):.1f} deg",
+        ]
+    lim = th.normal_max_inclination_deg
+    if abs(rho_p) < lim and abs(rho_r) < lim:
+        return "normal", [
+            f"pitch and roll inclinations ({rho_p:.1f}, {rho_r:.1f} deg) within +-{lim:g} deg of upright",
+            f"total swing {total:.1f} deg < {th.drag_total_swing_deg:g} deg",
+        ]
+    return "unclassified", [
+        f"pitch inclination {rho_p:.1f} deg, roll inclination {rho_r:.1f} deg: outside the normal range "
+        "but matching no known pattern (e.g. leaning right or backward)"
+    ]
+
+
+def _relative(doc: Mapping[str, Any], base: Mapping[str, Any], th: PostureThresholds) -> tuple[str, list[str]]:
+    d_rho_p = _axis(doc, "pitch", "inclination_mean") - _axis(base, "pitch", "inclination_mean")
+    d_rho_r = _axis(doc, "roll", "inclination_mean") - _axis(base, "roll", "inclination_mean")
+    d_max_p = _axis(doc, "pitch", "lmax_mean") - _axis(base, "pitch", "lmax_mean")
+    d_min_p = _axis(doc, "pitch", "lmin_mean") - _axis(base, "pitch", "lmin_mean")
+    base_total = _total_swing(base)
+    total = _total_swing(doc)
+    ratio = total / base_total if base_total > 0 else float("nan")
+    if not all(math.isfinite(v) for v in (d_rho_p, d_rho_r, ratio, _axis(base, "roll", "swing_mean"))):
+        return "unclassified", ["baseline lacks pitch/roll indicators"]
+    if ratio >= th.drag_swing_ratio:
+        per_axis = ", ".join(
+            f"{a} {_axis(doc, a, 'swing_mean'):.2f} vs {_axis(base, a, 'swing_mean'):.2f}" for a in ("pitch", "yaw", "roll")
+        )
+        return "right_foot_drag", [
+            f"swings {ratio:.1f} x the baseline's ({per_axis} deg) >= {th.drag_swing_ratio:g} x: poor balance, "
+            "as in the paper's right foot drag walk",
+            *_extras(doc),
+        ]
+    t_r = max(th.left_roll_drop_deg, th.left_roll_drop_swing_fraction * _axis(base, "roll", "swing_mean"))
+    t_p = max(th.bend_pitch_drop_deg, th.bend_pitch_drop_swing_fraction * _axis(base, "pitch", "swing_mean"))
+    if d_rho_r <= -t_r and d_rho_r <= -th.left_roll_vs_pitch * abs(d_rho_p):
+        return "left_shoulder_down", [
+            f"roll inclination {d_rho_r:+.2f} deg vs the baseline (threshold -{t_r:.2f}): trunk tilted to the left",
+            f"pitch inclination {d_rho_p:+.2f} deg vs the baseline",
+        ]
+    if d_rho_p <= -t_p and d_max_p < 0 and d_min_p < 0:
+        return "bend", [
+            f"pitch inclination {d_rho_p:+.2f} deg vs the baseline (threshold -{t_p:.2f}): trunk bent forward",
+            f"pitch extremums lower by {-d_max_p:.2f} (max) and {-d_min_p:.2f} (min) deg",
+        ]
+    if (
+        th.normal_min_swing_ratio <= ratio < th.drag_swing_ratio
+        and abs(d_rho_p) < t_p
+        and abs(d_rho_r) < t_r
+    ):
+        return "normal", [
+            f"inclinations near the baseline's (pitch {d_rho_p:+.2f} deg, within {t_p:.2f}; "
+            f"roll {d_rho_r:+.2f} deg, within {t_r:.2f})",
+            f"swings {ratio:.2f} x the baseline's",
+        ]
+    return "unclassified", [
+        f"differs from the baseline (pitch inclination {d_rho_p:+.2f}, roll inclination {d_rho_r:+.2f} deg, "
+        f"swings {ratio:.2f} x) but matches no known pattern"
+    ]

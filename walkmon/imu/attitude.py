@@ -1,0 +1,770 @@
+"""IMU attitude: an error-state Kalman filter (filterpy) on orientation and gyroscope bias.
+
+The nominal state is the orientation ``R`` (sensor directions -> world; world = the sensor frame at the first
+sample, with gravity's measured direction ``down_world``) and the gyroscope bias ``b``. The error state
+``[dtheta (3, sensor frame), db (3)]`` lives in a :class:`filterpy.kalman.KalmanFilter`; after each update the
+error is injected into the nominal state and reset to zero.
+
+* **Predict** with every gyroscope sample: ``R <- R Exp((w - b) dt)``.
+* **Gravity update** from the accelerometer direction, ``a/|a| ~ -R^T down_world``, skipped while the wearer
+  accelerates hard (``| |a| - g |`` above ``acceleration_rejection_m_s2``) and weak while moving, so the
+  periodic accelerations of walking average out instead of tilting the estimate.
+* **Rest update**: while the sensor is still (gyro and accelerometer steady for ``rest_min_s``), the gyroscope
+  reads its bias: a zero-rate measurement that pins ``b`` on all three axes (including the vertical one that
+  gravity cannot see).
+
+Outputs per sample (:class:`AttitudeEstimate`): the orientation, start-relative angles (pitch, yaw, roll of
+:mod:`walkmon.consts`), gravity's direction in the sensor frame and the gravity-referenced
+``pitch_abs, roll_abs``. :func:`estimate_attitude` runs the filter over a whole recording, initialised from its
+first still period.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from walkmon.consts import (
+    GRAVITY_MS2,
+    angles_deg_from_rotation,
+    gravity_angles_deg_from_gravity,
+    skew,
+)
+from walkmon.errors import ConfigError, InvalidInputError
+
+__all__ = [
+    "DEFAULT_ATTITUDE_SETTINGS",
+    "GYROSCOPE_RULES",
+    "HANDHELD_ATTITUDE_SETTINGS",
+    "AttitudeEstimate",
+    "AttitudeSettings",
+    "AttitudeStatus",
+    "AttitudeTrack",
+    "ImuAttitudeFilter",
+    "SmoothedAttitude",
+    "VisualWindows",
+    "estimate_attitude",
+    "exp_so3",
+    "initial_state_from_rest",
+    "log_so3",
+    "smooth_attitude",
+]
+
+_log = logging.getLogger(__name__)
+
+#: Chi-square 99.9 % quantile with 3 degrees of freedom: measurements further out are rejected as outliers.
+_GATE_3DOF = 16.27
+
+#: Meanings of a gyroscope sample (:attr:`AttitudeSettings.gyroscope_rule`).
+GYROSCOPE_RULES = ("trapezoid", "backward")
+
+
+# ------------------------------------------------------------------------------------------------- SO(3)
+def exp_so3(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrix of the rotation vector ``v`` (radians), Rodrigues' formula."""
+    theta = float(np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]))
+    K = skew(v)
+    if theta < 1e-8:
+        return np.eye(3) + K + 0.5 * (K @ K)
+    return np.eye(3) + (np.sin(theta) / theta) * K + ((1.0 - np.cos(theta)) / (theta * theta)) * (K @ K)
+
+
+def log_so3(R: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation vector (radians) of the rotation matrix ``R``."""
+    c = np.clip((np.trace(R) - 1.0) * 0.5, -1.0, 1.0)
+    theta = float(np.arccos(c))
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if theta < 1e-6:
+        return 0.5 * w
+    if np.pi - theta < 1e-4:  # near pi: take the axis from the symmetric part
+        axis = np.sqrt(np.clip((np.diag(R) + 1.0) * 0.5, 0.0, None))
+        axis *= np.sign(w) + (w == 0)
+        return theta * axis / np.linalg.norm(axis)
+    return (theta / (2.0 * np.sin(theta))) * w
+
+
+# --------------------------------------------------------------------------------------------- settings
+@dataclass(frozen=True, slots=True)
+class AttitudeSettings:
+    """Noise model and gating of :class:`ImuAttitudeFilter` (defaults suit consumer MEMS IMUs at 100-400 Hz).
+
+    ``gyroscope_noise_rad_s_sqrt_hz``: angle random walk (white rate noise density).
+    ``gyroscope_bias_walk_rad_s_sqrt_s``: how fast the gyroscope bias may wander.
+    ``gyroscope_scale_error``: relative scale-factor / misalignment error of the gyroscope, modelled as extra
+    rate noise proportional to the rate (fast rotations make the filter lean more on gravity).
+    ``initial_bias_std_rad_s`` / ``initial_tilt_std_deg``: prior uncertainty when the filter starts.
+    ``gravity_std_rest`` / ``gravity_std_moving``: std of the accelerometer *direction* (unit vector, ~radians)
+    per sample, at rest and while moving; ``gravity_std_per_m_s2`` adds to the moving value in proportion to
+    the recent peak of ``| |a| - g |`` (a 0.5 s decaying envelope), so the accelerations of walking average out
+    while slow hand-held motion keeps a firm gravity reference.
+    ``acceleration_rejection_m_s2``: no gravity update when ``| |a| - g |`` exceeds this.
+    ``rest_gyroscope_deg_s`` / ``rest_accelerometer_m_s2`` / ``rest_min_s``: rest detection thresholds on the
+    deviation from a 0.2 s low-pass, held for ``rest_min_s``; once the bias is known, the low-passed rate minus
+    the bias must also stay below ``rest_rate_deg_s`` (so the slow start of a movement is not taken for rest);
+    ``rest_rate_std_rad_s``: per-sample std of the zero-rate update at rest.
+    ``gravity_lowpass_s``: when > 0, gravity updates (while moving) use the accelerometer low-passed over this
+    many seconds in the world frame, at ``gravity_update_hz`` with std ``gravity_std_lowpass`` (VQF's idea; see
+    :data:`HANDHELD_ATTITUDE_SETTINGS`); 0 (default, best for walking) = per-sample updates as above.
+    ``rate_hz_nominal``: the IMU rate (set from the data by the offline functions).
+    ``gyroscope_rule``: what a gyroscope sample means, a property of the sensor: ``"trapezoid"`` (default) for
+    instantaneous rates at the sample time (the simulator's), integrated with the trapezoidal rule;
+    ``"backward"`` for the mean rate over the interval ending at the sample (what filtered MEMS outputs behave
+    like, and what VQF and imufusion assume: on BROAD's real IMU it cuts the inclination error of fast
+    rotations from 1.9 to 1.2 deg, benchmarks/results/fusion.md).
+    """
+
+    gyroscope_noise_rad_s_sqrt_hz: float = 3e-4
+    gyroscope_bias_walk_rad_s_sqrt_s: float = 5e-5
+    gyroscope_scale_error: float = 0.03
+    initial_bias_std_rad_s: float = 0.02
+    initial_tilt_std_deg: float = 1.0
+    gravity_std_rest: float = 0.2
+    gravity_std_moving: float = 0.2
+    gravity_std_per_m_s2: float = 3.0
+    gravity_lowpass_s: float = 0.0
+    gravity_update_hz: float = 20.0
+    gravity_std_lowpass: float = 0.05
+    acceleration_rejection_m_s2: float = 3.0
+    rest_gyroscope_deg_s: float = 2.0
+    rest_accelerometer_m_s2: float = 0.2
+    rest_min_s: float = 1.0
+    rest_rate_deg_s: float = 0.2
+    rest_rate_std_rad_s: float = 0.005
+    rate_hz_nominal: float = 200.0
+    gyroscope_rule: str = "trapezoid"
+
+    def __post_init__(self) -> None:
+        for name in self.__slots__:  # type: ignore[attr-defined]
+            value = getattr(self, name)
+            if name == "gyroscope_rule":
+                if value not in GYROSCOPE_RULES:
+                    msg = f"gyroscope_rule must be one of {', '.join(GYROSCOPE_RULES)}, got {value!r}"
+                    raise ConfigError(msg)
+                continue
+            if name == "gravity_lowpass_s" and value == 0:
+                continue  # 0 = per-sample gravity updates
+            if not (np.isfinite(value) and value > 0):
+                msg = f"attitude setting {name} must be a positive number, got {value!r}"
+                raise ConfigError(msg)
+
+
+DEFAULT_ATTITUDE_SETTINGS = AttitudeSettings()
+
+#: For hand-held or general motion (no sustained accelerations) with a real MEMS IMU: gravity from the
+#: accelerometer low-passed over 2 s in the gyro-integrated frame (VQF's idea), a firmer gravity reference
+#: (0.02), a faster-wandering bias (2e-4 rad/s/sqrt(s)), 1 % gyro scale error, and gyro samples taken as
+#: interval means (``gyroscope_rule="backward"``). Chosen on the two BROAD trials, where it beats vqf (online)
+#: and imufusion (benchmarks/results/fusion.md); settings chosen on one trial and measured on the other still
+#: beat both (benchmarks/results/broad-cv.md: 0.390 / 0.995 deg vs vqf 0.429 / 1.023). Worse on walks, where the start of walking and speed changes are sustained forward
+#: accelerations that a 2 s low-pass takes for gravity.
+HANDHELD_ATTITUDE_SETTINGS = AttitudeSettings(
+    gravity_lowpass_s=2.0,
+    gravity_std_lowpass=0.02,
+    gyroscope_bias_walk_rad_s_sqrt_s=2e-4,
+    gyroscope_scale_error=0.01,
+    gyroscope_rule="backward",
+)
+
+
+class AttitudeStatus(enum.Enum):
+    """What the filter did with a sample."""
+
+    INITIALISING = "initialising"
+    REST = "rest"
+    GRAVITY = "gravity"  # moving, gravity update applied
+    GYRO_ONLY = "gyro_only"  # accelerating hard: gravity update skipped
+
+
+@dataclass(frozen=True, slots=True)
+class AttitudeEstimate:
+    """The filter's estimate after one sample.
+
+    ``rotation``: sensor -> start frame (orientation relative to the reference, conventions of
+    :mod:`walkmon.consts`); ``angles_deg``: its (pitch, yaw, roll); ``gravity_down``: unit gravity direction in
+    the sensor frame; ``abs_angles_deg``: (pitch_abs, roll_abs); ``gyroscope_bias_rad_s``: the bias estimate.
+    """
+
+    t_s: float
+    rotation: NDArray[np.float64]
+    angles_deg: NDArray[np.float64]
+    gravity_down: NDArray[np.float64]
+    abs_angles_deg: NDArray[np.float64]
+    gyroscope_bias_rad_s: NDArray[np.float64]
+    status: AttitudeStatus
+
+    def __post_init__(self) -> None:
+        for name in ("rotation", "angles_deg", "gravity_down", "abs_angles_deg", "gyroscope_bias_rad_s"):
+            getattr(self, name).setflags(write=False)
+
+
+# ------------------------------------------------------------------------------------------------ filter
+class _RestDetector:
+    """Rest when gyro and accelerometer stay within thresholds of their 0.5 s low-pass for ``rest_min_s``."""
+
+    def __init__(self, settings: AttitudeSettings) -> None:
+        self._s = settings
+        self.reset()
+
+    def reset(self) -> None:
+        self._gyro_lp: NDArray[np.float64] | None = None
+        self._accel_lp: NDArray[np.float64] | None = None
+        self._still_s = 0.0
+
+    def push(
+        self, gyro: NDArray[np.float64], accel: NDArray[np.float64], dt: float, bias: NDArray[np.float64] | None
+    ) -> bool:
+        """``bias``: the current bias estimate when it is trusted (then the low-passed rate minus the bias must
+        be below the threshold too, so the slow start of a movement is not taken for rest)."""
+        if self._gyro_lp is None or self._accel_lp is None:
+            self._gyro_lp, self._accel_lp = gyro.copy(), accel.copy()
+            return False
+        k = min(1.0, dt / 0.2)
+        self._gyro_lp += k * (gyro - self._gyro_lp)
+        self._accel_lp += k * (accel - self._accel_lp)
+        dg = gyro - self._gyro_lp
+        da = accel - self._accel_lp
+        th_g = np.radians(self._s.rest_gyroscope_deg_s)
+        still = float(dg @ dg) < th_g * th_g and float(da @ da) < self._s.rest_accelerometer_m_s2**2
+        if still and bias is not None:
+            db = self._gyro_lp - bias
+            still = float(db @ db) < np.radians(self._s.rest_rate_deg_s) ** 2
+        if still:
+            self._still_s += dt
+        else:
+            self._still_s = 0.0
+        return self._still_s >= self._s.rest_min_s
+
+
+class ImuAttitudeFilter:
+    """Error-state Kalman filter on orientation and gyroscope bias (see the module docstring).
+
+    ``push(t_s, gyroscope_rad_s, accelerometer_m_s2) -> AttitudeEstimate``; ``reset()`` forgets everything.
+    ``n_clones`` extra 3-D error blocks (orientation clones) are carried for relative measurements
+    (:mod:`walkmon.imu.fusion` uses one); ``n_extra`` additive, constant states after them (``self.extra``, prior
+    variance set by the caller in ``kf.P``; the fusion models the visual estimator's drift rate and scale there).
+    """
+
+    def __init__(
+        self, settings: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS, *, n_clones: int = 0, n_extra: int = 0
+    ) -> None:
+        self.settings = settings
+        self.n_clones = n_clones
+        self.n_extra = n_extra
+        self._rest = _RestDetector(settings)
+        self.reset()
+
+    # -- state ------------------------------------------------------------------------------------------------
+    def reset(
+        self,
+        *,
+        initial_accelerometer_m_s2: ArrayLike | None = None,
+        initial_bias_rad_s: ArrayLike | None = None,
+        initial_bias_std_rad_s: float | None = None,
+        initial_tilt_std_deg: float | None = None,
+    ) -> None:
+        """Forget everything; optionally start from a known gravity reading and bias (e.g. a still period,
+        then ``initial_bias_std_rad_s`` / ``initial_tilt_std_deg`` say how well they are known)."""
+        from filterpy.kalman import KalmanFilter  # noqa: PLC0415 - filterpy's import takes ~2 s (scipy.stats)
+
+        s = self.settings
+        dim = 6 + 3 * self.n_clones + self.n_extra
+        self.kf = KalmanFilter(dim_x=dim, dim_z=3)
+        self.kf.x = np.zeros((dim, 1))
+        P = np.zeros((dim, dim))
+        # Only the tilt is uncertain: the world frame is the sensor frame at the start, so the heading about
+        # gravity is zero by definition (an isotropic prior would leak a fake heading error into pitch/roll).
+        P[0:3, 0:3] = np.eye(3) * np.radians(s.initial_tilt_std_deg) ** 2
+        bias_std = s.initial_bias_std_rad_s if initial_bias_std_rad_s is None else initial_bias_std_rad_s
+        P[3:6, 3:6] = np.eye(3) * bias_std**2
+        self.kf.P = P
+        self.rotation_world = np.eye(3)
+        self.clones = [np.eye(3) for _ in range(self.n_clones)]
+        self.extra = np.zeros(self.n_extra)
+        #: random-walk std per sqrt(s) of each extra state (0 = constant)
+        self.extra_walk_per_sqrt_s = np.zeros(self.n_extra)
+        self.bias = np.zeros(3) if initial_bias_rad_s is None else np.asarray(initial_bias_rad_s, float).copy()
+        self.down_world: NDArray[np.float64] | None = None
+        self._tilt_std_deg = s.initial_tilt_std_deg if initial_tilt_std_deg is None else initial_tilt_std_deg
+        if initial_accelerometer_m_s2 is not None:
+            a = np.asarray(initial_accelerometer_m_s2, dtype=float)
+            self._set_down(-a / np.linalg.norm(a))
+        self.reference = np.eye(3)
+        self.t_s: float | None = None
+        self._last_gyro = np.zeros(3)
+        self._rest.reset()
+        self.at_rest = False
+        self._accel_envelope = 0.0
+        self._accel_world_lp: NDArray[np.float64] | None = None
+        self._rotation_gyro = np.eye(3)  # bias-corrected gyro integration, never corrected by gravity
+        self._since_gravity_s = 0.0
+
+    def _set_down(self, down: NDArray[np.float64]) -> None:
+        """Fix gravity's direction in the world frame and drop the prior's heading part (about gravity)."""
+        self.down_world = down
+        tilt_var = np.radians(self._tilt_std_deg) ** 2
+        self.kf.P[0:3, 0:3] = tilt_var * (np.eye(3) - np.outer(down, down)) + 1e-12 * np.outer(down, down)
+
+    # -- predict / update ---------------------------------------------------------------------------------------
+    def propagate(self, gyroscope_rad_s: NDArray[np.float64], dt: float) -> None:
+        """Advance the nominal state and the error covariance by ``dt`` seconds with one gyro reading."""
+        if dt <= 0:
+            return
+        s = self.settings
+        w = gyroscope_rad_s - self.bias
+        dR = exp_so3(w * dt)
+        self.rotation_world = self.rotation_world @ dR
+        self._rotation_gyro = self._rotation_gyro @ dR
+        dim = self.kf.dim_x
+        F = np.eye(dim)
+        F[0:3, 0:3] = dR.T
+        F[0:3, 3:6] = -np.eye(3) * dt
+        Q = np.zeros((dim, dim))
+        rate2 = float(w @ w)
+        Q[0:3, 0:3] = np.eye(3) * (s.gyroscope_noise_rad_s_sqrt_hz**2 * dt + s.gyroscope_scale_error**2 * rate2 * dt * dt)
+        Q[3:6, 3:6] = np.eye(3) * (s.gyroscope_bias_walk_rad_s_sqrt_s**2 * dt)
+        if self.n_extra:
+            k = 6 + 3 * self.n_clones
+            Q[k:, k:] = np.diag(self.extra_walk_per_sqrt_s**2 * dt)
+        P = self.kf.P
+        self.kf.P = F @ P @ F.T + Q
+
+    def update(self, residual: NDArray[np.float64], H: NDArray[np.float64], R: NDArray[np.float64], gate: float | None = None) -> bool:
+        """Kalman update with the error-state residual; inject and reset. Returns False when gated out."""
+        P = self.kf.P
+        S = H @ P @ H.T + R
+        if gate is not None:
+            try:
+                d2 = float(residual @ np.linalg.solve(S, residual))
+            except np.linalg.LinAlgError:
+                return False
+            if d2 > gate:
+                return False
+        self.kf.update(residual.reshape(-1, 1), R=R, H=H)
+        dx = self.kf.x[:, 0].copy()
+        self.kf.x[:] = 0.0
+        self.rotation_world = self.rotation_world @ exp_so3(dx[0:3])
+        self.bias = self.bias + dx[3:6]
+        for i in range(self.n_clones):
+            self.clones[i] = self.clones[i] @ exp_so3(dx[6 + 3 * i : 9 + 3 * i])
+        if self.n_extra:
+            self.extra = self.extra + dx[6 + 3 * self.n_clones :]
+        return True
+
+    def clone_current(self, index: int = 0) -> None:
+        """Copy the current orientation (and its covariance) into clone ``index``."""
+        k = 6 + 3 * index
+        P = self.kf.P
+        P[k : k + 3, :] = P[0:3, :]
+        P[:, k : k + 3] = P[:, 0:3]
+        self.clones[index] = self.rotation_world.copy()
+
+    def push(self, t_s: float, gyroscope_rad_s: ArrayLike, accelerometer_m_s2: ArrayLike) -> AttitudeEstimate:
+        """One IMU sample: propagate from the previous sample's time with the previous gyro reading, then
+        correct with this sample's accelerometer (and zero rate at rest)."""
+        gyro = np.asarray(gyroscope_rad_s, dtype=float)
+        accel = np.asarray(accelerometer_m_s2, dtype=float)
+        status = self.advance_to(t_s, gyro)
+        if status is None:
+            status = self.correct(gyro, accel)
+        return self.estimate(status)
+
+    def advance_to(self, t_s: float, gyro: NDArray[np.float64] | None = None) -> AttitudeStatus | None:
+        """Propagate to ``t_s``: with the mean of the last and this gyro reading when ``gyro`` is given (then
+        remember it), else with the last reading (a frame time between two IMU samples)."""
+        status = None
+        if self.t_s is None:
+            self.t_s = t_s
+            status = AttitudeStatus.INITIALISING
+        else:
+            dt = t_s - self.t_s
+            if dt < 0:
+                msg = f"IMU time went backwards: {t_s} after {self.t_s}"
+                raise InvalidInputError(msg)
+            # trapezoidal rule between samples; a frame time between samples extrapolates the last rate
+            if gyro is None:
+                rate = self._last_gyro
+            elif self.settings.gyroscope_rule == "backward":
+                rate = gyro
+            else:
+                rate = 0.5 * (self._last_gyro + gyro)
+            self.propagate(rate, dt)
+            self.t_s = t_s
+        if gyro is not None:
+            self._last_gyro = gyro
+        return status
+
+    def correct(self, gyro: NDArray[np.float64], accel: NDArray[np.float64]) -> AttitudeStatus:
+        s = self.settings
+        norm = float(np.linalg.norm(accel))
+        if self.down_world is None:
+            if norm < 1e-6:
+                return AttitudeStatus.INITIALISING
+            self._set_down(-accel / norm)
+            return AttitudeStatus.INITIALISING
+        dt = 1.0 / s.rate_hz_nominal
+        bias_std = float(np.sqrt(np.max(np.diag(self.kf.P)[3:6])))
+        trusted = self.bias if bias_std < 0.1 * np.radians(s.rest_gyroscope_deg_s) else None
+        self.at_rest = self._rest.push(gyro, accel, dt, trusted)
+        status = AttitudeStatus.GRAVITY
+        if self.at_rest:
+            H = np.zeros((3, self.kf.dim_x))
+            H[:, 3:6] = np.eye(3)
+            if self.update(gyro - self.bias, H, np.eye(3) * s.rest_rate_std_rad_s**2, gate=_GATE_3DOF):
+                status = AttitudeStatus.REST
+        if s.gravity_lowpass_s > 0 and not self.at_rest:
+            return self._lowpass_gravity_update(accel, dt)
+        if abs(norm - GRAVITY_MS2) > s.acceleration_rejection_m_s2 or norm < 1e-6:
+            return AttitudeStatus.GYRO_ONLY
+        h0 = -self.rotation_world.T @ self.down_world
+        H = np.zeros((3, self.kf.dim_x))
+        H[:, 0:3] = skew(h0)
+        self._accel_envelope = max(abs(norm - GRAVITY_MS2), self._accel_envelope * np.exp(-dt / 0.5))
+        std = s.gravity_std_rest if self.at_rest else s.gravity_std_moving + s.gravity_std_per_m_s2 * self._accel_envelope
+        self.update(accel / norm - h0, H, np.eye(3) * std**2)
+        return status
+
+    def _lowpass_gravity_update(self, accel: NDArray[np.float64], dt: float) -> AttitudeStatus:
+        """Gravity from the accelerometer low-passed in the world frame (``gravity_lowpass_s``), as VQF does:
+        the accelerations of walking or hand motion average out over the low-pass window, while gravity, fixed
+        in the world, stays. Updates at ``gravity_update_hz``; residual in the world frame."""
+        s = self.settings
+        assert self.down_world is not None
+        # low-pass in the gyro-integrated (almost inertial) frame, which gravity corrections never rotate, so
+        # the filter's own corrections do not leak into the low-pass state (VQF's design)
+        a_world = self._rotation_gyro @ accel
+        if self._accel_world_lp is None:
+            self._accel_world_lp = a_world.copy()
+        else:
+            self._accel_world_lp += min(1.0, dt / s.gravity_lowpass_s) * (a_world - self._accel_world_lp)
+        self._since_gravity_s += dt
+        if self._since_gravity_s < 1.0 / s.gravity_update_hz:
+            return AttitudeStatus.GYRO_ONLY
+        self._since_gravity_s = 0.0
+        lp = self._accel_world_lp
+        norm = float(np.linalg.norm(lp))
+        if norm < 1e-6 or abs(norm - GRAVITY_MS2) > s.acceleration_rejection_m_s2:
+            return AttitudeStatus.GYRO_ONLY
+        measured_down = -(self._rotation_gyro.T @ lp) / norm  # gravity's direction in the sensor frame now
+        h0 = self.rotation_world.T @ self.down_world
+        H = np.zeros((3, self.kf.dim_x))
+        H[:, 0:3] = skew(h0)
+        self.update(measured_down - h0, H, np.eye(3) * s.gravity_std_lowpass**2)
+        return AttitudeStatus.GRAVITY
+
+    def set_reference(self) -> None:
+        """Make the current orientation the start-relative reference (angles 0, 0, 0 now)."""
+        self.reference = self.rotation_world.copy()
+
+    def estimate(self, status: AttitudeStatus) -> AttitudeEstimate:
+        R = self.reference.T @ self.rotation_world
+        down = self.down_world if self.down_world is not None else np.array([0.0, 1.0, 0.0])
+        g = self.rotation_world.T @ down
+        return AttitudeEstimate(
+            t_s=float(self.t_s if self.t_s is not None else 0.0),
+            rotation=R,
+            angles_deg=angles_deg_from_rotation(R),
+            gravity_down=g,
+            abs_angles_deg=gravity_angles_deg_from_gravity(g),
+            gyroscope_bias_rad_s=self.bias.copy(),
+            status=status,
+        )
+
+
+# -------------------------------------------------------------------------------------------- offline
+def initial_state_from_rest(
+    t_s: NDArray[np.float64],
+    gyro: NDArray[np.float64],
+    accel: NDArray[np.float64],
+    window_s: float = 1.0,
+    max_window_s: float = 5.0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, float | None, float | None]:
+    """Mean accelerometer over the first ``window_s`` and, when the sensor was still then, the mean gyro as
+    the initial bias (both over the whole still start, up to ``max_window_s``), with the bias and tilt uncertainties (rad/s, deg; all None when it moved: the filter then
+    learns the bias itself and starts from the settings' priors)."""
+    n = max(2, int(np.searchsorted(t_s, t_s[0] + window_s)))
+    a0 = accel[:n].mean(axis=0)
+    g_dev = np.degrees(np.abs(gyro[:n] - gyro[:n].mean(axis=0))).max()
+    still = g_dev < 3.0 and np.abs(np.linalg.norm(accel[:n], axis=1) - np.linalg.norm(a0)).max() < 0.6
+    if not still:
+        return a0, None, None, None
+    # extend over the whole still start (up to max_window_s) in 0.25 s blocks whose mean gyro and accelerometer
+    # stay at the first window's: a 2 s still start halves the bias error of a 1 s window (the zero-rate
+    # updates at rest only start after rest_min_s)
+    g0 = gyro[:n].mean(axis=0)
+    while t_s[n - 1] - t_s[0] < max_window_s:
+        m = int(np.searchsorted(t_s, t_s[n - 1] + 0.25))
+        if m >= len(t_s) or m - n < 5:
+            break
+        if np.degrees(np.abs(gyro[n:m].mean(axis=0) - g0)).max() > 0.05 or np.abs(accel[n:m].mean(axis=0) - a0).max() > 0.03:
+            break
+        n = m
+        g0 = gyro[:n].mean(axis=0)
+    a0 = accel[:n].mean(axis=0)
+    std = float(np.max(gyro[:n].std(axis=0)) / np.sqrt(n))
+    tilt_std_deg = float(np.degrees(np.max(accel[:n].std(axis=0)) / np.linalg.norm(a0) / np.sqrt(n)))
+    return a0, gyro[:n].mean(axis=0), max(2.0 * std, 5e-5), max(2.0 * tilt_std_deg, 0.05)
+
+
+@dataclass(frozen=True, slots=True)
+class AttitudeTrack:
+    """A whole recording's estimates: times (N,), start-relative angles (N,3) pitch,yaw,roll deg, rotations
+    (N,3,3), gravity direction (N,3), (pitch_abs, roll_abs) (N,2) deg, gyroscope bias (N,3) rad/s."""
+
+    t_s: NDArray[np.float64]
+    angles_deg: NDArray[np.float64]
+    rotations: NDArray[np.float64]
+    gravity_down: NDArray[np.float64]
+    abs_angles_deg: NDArray[np.float64]
+    gyroscope_bias_rad_s: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        for name in self.__slots__:  # type: ignore[attr-defined]
+            getattr(self, name).setflags(write=False)
+
+
+def _check_imu_arrays(t_s: ArrayLike, gyro: ArrayLike, accel: ArrayLike) -> tuple[NDArray[np.float64], ...]:
+    t = np.asarray(t_s, dtype=float).reshape(-1)
+    g = np.asarray(gyro, dtype=float)
+    a = np.asarray(accel, dtype=float)
+    if g.shape != (len(t), 3) or a.shape != (len(t), 3):
+        msg = f"IMU arrays must be t (N,), gyro (N,3), accel (N,3); got {t.shape}, {g.shape}, {a.shape}"
+        raise InvalidInputError(msg)
+    if len(t) < 2:
+        msg = "IMU recording needs at least 2 samples"
+        raise InvalidInputError(msg)
+    return t, g, a
+
+
+def estimate_attitude(
+    t_s: ArrayLike,
+    gyroscope_rad_s: ArrayLike,
+    accelerometer_m_s2: ArrayLike,
+    settings: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS,
+    *,
+    smooth: bool = False,
+) -> AttitudeTrack:
+    """Run :class:`ImuAttitudeFilter` over a recording (initialised from its first second), angles relative
+    to the first sample; ``smooth``: offline forward filter + RTS backward pass (:func:`smooth_attitude`)."""
+    t, g, a = _check_imu_arrays(t_s, gyroscope_rad_s, accelerometer_m_s2)
+    a0, b0, b0_std, tilt_std = initial_state_from_rest(t, g, a)
+    rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
+    if smooth:
+        sm = smooth_attitude(
+            t, g, a, _with_rate(settings, rate), initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0,
+            initial_bias_std_rad_s=b0_std, initial_tilt_std_deg=tilt_std,
+        )
+        R = np.einsum("ji,njk->nik", sm.rotations_world[0], sm.rotations_world)
+        down = np.einsum("nji,j->ni", sm.rotations_world, sm.down_world)
+        return AttitudeTrack(
+            t_s=t.copy(), angles_deg=angles_deg_from_rotation(R), rotations=R, gravity_down=down,
+            abs_angles_deg=gravity_angles_deg_from_gravity(down), gyroscope_bias_rad_s=sm.bias_rad_s.copy(),
+        )
+    filt = ImuAttitudeFilter(_with_rate(settings, rate))
+    filt.reset(
+        initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0, initial_bias_std_rad_s=b0_std, initial_tilt_std_deg=tilt_std
+    )
+    out = []
+    for i in range(len(t)):
+        out.append(filt.push(t[i], g[i], a[i]))
+    return _track(out)
+
+
+def _with_rate(settings: AttitudeSettings, rate_hz: float) -> AttitudeSettings:
+    from dataclasses import replace
+
+    return replace(settings, rate_hz_nominal=float(rate_hz))
+
+
+def _track(estimates: list[AttitudeEstimate]) -> AttitudeTrack:
+    return AttitudeTrack(
+        t_s=np.array([e.t_s for e in estimates]),
+        angles_deg=np.array([e.angles_deg for e in estimates]),
+        rotations=np.array([e.rotation for e in estimates]),
+        gravity_down=np.array([e.gravity_down for e in estimates]),
+        abs_angles_deg=np.array([e.abs_angles_deg for e in estimates]),
+        gyroscope_bias_rad_s=np.array([e.gyroscope_bias_rad_s for e in estimates]),
+    )
+
+
+# ------------------------------------------------------------------------------- offline RTS smoothing
+@dataclass(frozen=True, slots=True)
+class VisualWindows:
+    """Visual rotations for :func:`smooth_attitude`, on the IMU's clock and in the IMU filter's axes.
+
+    ``t_s`` (M,) frame times, ``rotations`` (M,3,3) the estimator's start-relative orientations, ``ok`` (M,)
+    frames it measured. The rotation *between* two good frames ``baseline_s`` or more apart measures the
+    gyroscope bias over that window (``std_deg`` per axis for the visual part; the gyroscope's own noise over
+    the window is added). A window whose disagreement with the gyroscope exceeds ``outlier_deg`` is rejected;
+    beyond the chi-square ``gate`` the noise is inflated (Huber-like).
+    """
+
+    t_s: NDArray[np.float64]
+    rotations: NDArray[np.float64]
+    ok: NDArray[np.bool_]
+    baseline_s: float = 1.0
+    std_deg: float = 0.04
+    outlier_deg: float = 1.0
+    gate: float = _GATE_3DOF
+
+
+@dataclass(frozen=True, slots=True)
+class SmoothedAttitude:
+    """Result of :func:`smooth_attitude`: per IMU sample the smoothed orientation (sensor -> world, (N,3,3)) and
+    gyroscope bias (N,3); ``down_world`` gravity's direction in the world frame; per visual frame whether its
+    window corrected the filter (``visual_used``) or was refused (``visual_rejected``); ``bias_std_rad_s`` the
+    final filtered bias uncertainty (largest axis)."""
+
+    t_s: NDArray[np.float64]
+    rotations_world: NDArray[np.float64]
+    bias_rad_s: NDArray[np.float64]
+    interval_rates_rad_s: NDArray[np.float64]
+    down_world: NDArray[np.float64]
+    visual_used: NDArray[np.bool_]
+    visual_rejected: NDArray[np.bool_]
+    bias_std_rad_s: float
+
+    def at(self, times_s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Orientations (M,3,3) and biases (M,3) at ``times_s``: from the last sample at or before each time,
+        propagated with the rate of that sample interval (times before the first sample get it)."""
+        tq = np.asarray(times_s, dtype=float).reshape(-1)
+        t = self.t_s
+        idx = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, len(t) - 1)
+        out = np.empty((len(tq), 3, 3))
+        for m, (i, tm) in enumerate(zip(idx, tq, strict=True)):
+            tau = max(0.0, float(tm - t[i]))
+            rate = self.interval_rates_rad_s[i]
+            out[m] = self.rotations_world[i] @ exp_so3((rate - self.bias_rad_s[i]) * tau)
+        return out, self.bias_rad_s[idx]
+
+
+def smooth_attitude(
+    t_s: NDArray[np.float64],
+    gyroscope_rad_s: NDArray[np.float64],
+    accelerometer_m_s2: NDArray[np.float64],
+    settings: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS,
+    *,
+    initial_accelerometer_m_s2: ArrayLike | None = None,
+    initial_bias_rad_s: ArrayLike | None = None,
+    initial_bias_std_rad_s: float | None = None,
+    initial_tilt_std_deg: float | None = None,
+    visual: VisualWindows | None = None,
+) -> SmoothedAttitude:
+    """Offline attitude: the forward :class:`ImuAttitudeFilter` (gravity, rest and, with ``visual``, visual
+    bias windows) followed by a Rauch-Tung-Striebel backward pass on the error state.
+
+    The forward filter alone only knows the past; the backward pass carries what is learnt later (the bias
+    from a still period at the end or from visual windows, gravity seen later) back to every earlier sample,
+    weighted by the filter's own covariances, so the smoothed estimate is never less informed than the
+    forward one. Visual windows measure the bias only (``r = log(D^T V) ~ H db``, with ``D`` the bias-corrected
+    gyro rotation over the window and ``V`` the visual one): per frame the gyroscope is ~10x more precise than
+    the visual increment, over a second the vision's drift is smaller than the gyro bias's effect.
+    """
+    t, g, a = _check_imu_arrays(t_s, gyroscope_rad_s, accelerometer_m_s2)
+    filt = ImuAttitudeFilter(settings)
+    filt.reset(
+        initial_accelerometer_m_s2=initial_accelerometer_m_s2,
+        initial_bias_rad_s=initial_bias_rad_s,
+        initial_bias_std_rad_s=initial_bias_std_rad_s,
+        initial_tilt_std_deg=initial_tilt_std_deg,
+    )
+    n = len(t)
+    Rf = np.empty((n, 3, 3))
+    bf = np.empty((n, 3))
+    Rpred = np.empty((n, 3, 3))
+    gains = np.zeros((n, 6, 6))
+    # visual bookkeeping: gyro-only chain G (bias-corrected, no gravity corrections) and its bias Jacobian J
+    G, J = np.eye(3), np.zeros((3, 3))
+    n_frames = 0 if visual is None else len(visual.t_s)
+    used = np.zeros(n_frames, bool)
+    rejected = np.zeros(n_frames, bool)
+    if visual is not None:
+        rejected |= ~np.asarray(visual.ok, bool)
+    anchor: tuple[int, NDArray[np.float64], NDArray[np.float64]] | None = None
+    frame = 0
+    if visual is not None:
+        while frame < n_frames and visual.t_s[frame] < t[0]:
+            frame += 1
+    sg2 = settings.gyroscope_noise_rad_s_sqrt_hz**2
+    # rates[i]: the rate over (t_i, t_i+1] as the filter integrates it (last one: extrapolation)
+    if settings.gyroscope_rule == "backward":
+        rates = np.vstack([g[1:], g[-1:]])
+    else:
+        rates = np.vstack([0.5 * (g[:-1] + g[1:]), g[-1:]])
+    for i in range(n):
+        if i > 0:
+            P_prev = filt.kf.P.copy()
+            b_prev = filt.bias.copy()
+            dt = t[i] - t[i - 1]
+            dR = exp_so3((rates[i - 1] - b_prev) * dt)
+            status = filt.advance_to(t[i], g[i])
+            F = np.eye(6)
+            F[0:3, 0:3] = dR.T
+            F[0:3, 3:6] = -np.eye(3) * dt
+            P_pred = filt.kf.P
+            try:
+                gains[i - 1] = np.linalg.solve(P_pred, F @ P_prev).T
+            except np.linalg.LinAlgError:
+                gains[i - 1] = (np.linalg.pinv(P_pred) @ F @ P_prev).T
+            Rpred[i] = filt.rotation_world
+            G = G @ dR
+            J = dR.T @ J - np.eye(3) * dt
+        else:
+            status = filt.advance_to(t[0], g[0])
+        if status is None or filt.down_world is None:
+            filt.correct(g[i], a[i])
+        # visual frames in [t_i, t_i+1)
+        t_next = t[i + 1] if i + 1 < n else np.inf
+        while visual is not None and frame < n_frames and visual.t_s[frame] < t_next:
+            if not visual.ok[frame]:
+                anchor = None
+                frame += 1
+                continue
+            tau = float(visual.t_s[frame] - t[i])
+            rate = rates[i] - filt.bias
+            dRt = exp_so3(rate * tau)
+            Gf, Jf = G @ dRt, dRt.T @ J - np.eye(3) * tau
+            V = visual.rotations[frame]
+            if anchor is None:
+                anchor = (frame, Gf, Jf)
+            elif visual.t_s[frame] - visual.t_s[anchor[0]] >= visual.baseline_s:
+                k0, Ga, Ja = anchor
+                D = Ga.T @ Gf
+                r = log_so3(D.T @ (visual.rotations[k0].T @ V))
+                H = np.zeros((3, 6))
+                H[:, 3:6] = Jf - D.T @ Ja
+                window_s = float(visual.t_s[frame] - visual.t_s[k0])
+                var = np.radians(visual.std_deg) ** 2 + sg2 * window_s
+                ok_window = np.degrees(np.linalg.norm(r)) <= visual.outlier_deg
+                if ok_window:
+                    Rm = np.eye(3) * var
+                    S = H @ filt.kf.P @ H.T + Rm
+                    d2 = float(r @ np.linalg.solve(S, r))
+                    if d2 > visual.gate:
+                        Rm = Rm * (d2 / visual.gate)
+                    filt.update(r, H, Rm)
+                    used[k0 : frame + 1] = True
+                else:
+                    rejected[k0 + 1 : frame + 1] = True
+                # re-anchor on the gyro chain as it stands after the update (the bias moved)
+                anchor = (frame, Gf, Jf)
+            frame += 1
+        Rf[i] = filt.rotation_world
+        bf[i] = filt.bias
+    bias_std = float(np.sqrt(np.max(np.diag(filt.kf.P)[3:6])))
+    # Rauch-Tung-Striebel backward pass on the error state about the forward trajectory
+    Rs = Rf.copy()
+    bs = bf.copy()
+    for k in range(n - 2, -1, -1):
+        d = np.concatenate([log_so3(Rpred[k + 1].T @ Rs[k + 1]), bs[k + 1] - bf[k]])
+        dx = gains[k] @ d
+        Rs[k] = Rf[k] @ exp_so3(dx[0:3])
+        bs[k] = bf[k] + dx[3:6]
+    down = filt.down_world if filt.down_world is not None else np.array([0.0, 1.0, 0.0])
+    return SmoothedAttitude(
+        t_s=t, rotations_world=Rs, bias_rad_s=bs, interval_rates_rad_s=rates, down_world=np.asarray(down, float),
+        visual_used=used, visual_rejected=rejected & ~used, bias_std_rad_s=bias_std,
+    )

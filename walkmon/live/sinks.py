@@ -1,0 +1,174 @@
+"""Where alerts go: the log/terminal, a sound on the audio output, a command hook (alert JSON on stdin).
+
+Sinks never block the processing loop for long and never raise: a failing sink logs a warning and the
+session goes on. Child processes are started without waiting and reaped (or killed after
+``hook_timeout_s``) on later calls and on :meth:`AlertSinks.close`.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import math
+import shutil
+import struct
+import subprocess
+import tempfile
+import time
+import wave
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+from walkmon.live.alerts import AlertEvent
+
+__all__ = ["DEFAULT_SINK_SETTINGS", "AlertSinks", "SinkSettings", "beep_wav_bytes"]
+
+_log = logging.getLogger(__name__)
+
+_PLAYERS = (("paplay",), ("aplay", "-q"))
+
+
+@dataclass(frozen=True, slots=True)
+class SinkSettings:
+    """Alert sinks. ``sound_command``/``hook_command`` are argv lists; empty = off (sound: auto player)."""
+
+    #: Write raised/cleared alerts to the terminal stream and the log.
+    terminal: bool = True
+    #: Play a beep when an alert is raised.
+    sound: bool = False
+    #: Player argv; the WAV path is appended. Empty: paplay or aplay, whichever is installed.
+    sound_command: tuple[str, ...] = ()
+    #: Sound file to play; empty: a generated 0.3 s 880 Hz beep.
+    sound_file: str = ""
+    #: Program run for every alert event with its JSON on stdin, e.g. ("/usr/local/bin/buzz", "--pin", "17").
+    hook_command: tuple[str, ...] = ()
+    #: Also run the hook when an alert is cleared.
+    hook_on_clear: bool = False
+    #: A hook or player still running after this long is killed, s.
+    hook_timeout_s: float = 10.0
+
+    def __post_init__(self) -> None:
+        if self.hook_timeout_s <= 0:
+            msg = f"sinks.hook_timeout_s must be > 0, got {self.hook_timeout_s}"
+            raise ValueError(msg)
+
+
+DEFAULT_SINK_SETTINGS = SinkSettings()
+
+
+def beep_wav_bytes(freq_hz: float = 880.0, duration_s: float = 0.3, rate_hz: int = 16000) -> bytes:
+    """A mono 16-bit WAV of a sine beep with short fades."""
+    n = int(duration_s * rate_hz)
+    fade = max(1, int(0.01 * rate_hz))
+    frames = bytearray()
+    for i in range(n):
+        env = min(1.0, i / fade, (n - 1 - i) / fade)
+        frames += struct.pack("<h", int(0.5 * 32767 * env * math.sin(2 * math.pi * freq_hz * i / rate_hz)))
+    buf = io.BytesIO()
+    with wave.open(buf, "wb") as w:
+        w.setnchannels(1)
+        w.setsampwidth(2)
+        w.setframerate(rate_hz)
+        w.writeframes(bytes(frames))
+    return buf.getvalue()
+
+
+class AlertSinks:
+    """Deliver :class:`AlertEvent` objects to the configured sinks. ``deliver(events)``, ``close()``."""
+
+    def __init__(self, settings: SinkSettings = DEFAULT_SINK_SETTINGS, stream: TextIO | None = None) -> None:
+        self.settings = settings
+        self._stream = stream
+        self._children: list[tuple[subprocess.Popen[bytes], float, str]] = []
+        self._tmpdir: tempfile.TemporaryDirectory[str] | None = None
+        self._sound_argv: list[str] | None = None
+        if settings.sound:
+            self._sound_argv = self._prepare_sound()
+
+    def _prepare_sound(self) -> list[str] | None:
+        s = self.settings
+        if s.sound_file:
+            wav = s.sound_file
+        else:
+            self._tmpdir = tempfile.TemporaryDirectory(prefix="walkmon-sound-")
+            wav = str(Path(self._tmpdir.name) / "beep.wav")
+            Path(wav).write_bytes(beep_wav_bytes())
+        if s.sound_command:
+            return [*s.sound_command, wav]
+        for player in _PLAYERS:
+            if shutil.which(player[0]):
+                return [*player, wav]
+        _log.warning("sound alerts enabled but neither paplay nor aplay is installed; sound is off")
+        return None
+
+    def deliver(self, events: list[AlertEvent]) -> None:
+        self._reap()
+        for ev in events:
+            if self.settings.terminal:
+                line = f"[t={ev.t_s:7.1f}s] ALERT {ev.state}: {ev.message}"
+                _log.info("%s", line)
+                if self._stream is not None:
+                    try:
+                        self._stream.write("\n" + line + "\n")
+                        self._stream.flush()
+                    except (OSError, ValueError) as exc:
+                        _log.warning("cannot write alert to terminal: %s", exc)
+            if ev.state == "raised" and self._sound_argv:
+                self._spawn(self._sound_argv, None, "sound")
+            if self.settings.hook_command and (ev.state == "raised" or self.settings.hook_on_clear):
+                self._spawn(list(self.settings.hook_command), (ev.to_json() + "\n").encode(), "hook")
+
+    def _spawn(self, argv: list[str], stdin_bytes: bytes | None, what: str) -> None:
+        try:
+            proc = subprocess.Popen(  # noqa: S603 - argv comes from the operator's config
+                argv,
+                stdin=subprocess.PIPE if stdin_bytes is not None else subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
+        except OSError as exc:
+            _log.warning("alert %s %s failed to start: %s", what, argv[0], exc)
+            return
+        if stdin_bytes is not None and proc.stdin is not None:
+            try:
+                proc.stdin.write(stdin_bytes)  # small: fits the pipe buffer, never blocks
+            except OSError as exc:
+                _log.warning("alert %s %s did not read its input: %s", what, argv[0], exc)
+            finally:
+                try:
+                    proc.stdin.close()
+                except OSError:
+                    pass
+        self._children.append((proc, time.monotonic(), what))
+
+    def _reap(self) -> None:
+        now = time.monotonic()
+        alive = []
+        for proc, started, what in self._children:
+            rc = proc.poll()
+            if rc is None and now - started > self.settings.hook_timeout_s:
+                _log.warning("alert %s (pid %d) still running after %.0f s: killed", what, proc.pid,
+                             self.settings.hook_timeout_s)
+                proc.kill()
+                proc.wait(timeout=2)
+            elif rc is None:
+                alive.append((proc, started, what))
+            elif rc != 0:
+                _log.warning("alert %s exited with status %d", what, rc)
+        self._children = alive
+
+    def close(self, wait_s: float = 2.0) -> None:
+        """Wait briefly for running hooks/players, kill the rest, remove the generated sound."""
+        deadline = time.monotonic() + wait_s
+        for proc, _, _ in self._children:
+            try:
+                proc.wait(timeout=max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(timeout=2)
+        self._reap()
+        self._children = []
+        if self._tmpdir is not None:
+            self._tmpdir.cleanup()
+            self._tmpdir = None

@@ -1,0 +1,190 @@
+"""Types of the rotation stage: settings, the per-frame estimate and its status (no engine code here).
+
+The engines (:mod:`walkmon.rotation.fast`, :mod:`walkmon.rotation.paper`) and the front
+:class:`~walkmon.rotation.estimator.RotationEstimator` all import from here, so nothing imports the front.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from walkmon.consts import angles_deg_from_rotation
+from walkmon.errors import ConfigError, InvalidInputError
+
+__all__ = [
+    "DEFAULT_ROTATION_SETTINGS",
+    "METHODS",
+    "EstimateStatus",
+    "RotationEstimate",
+    "RotationSettings",
+    "grey_from_frame",
+]
+
+_log = logging.getLogger(__name__)
+
+#: The estimation methods :class:`RotationEstimator` offers.
+METHODS = ("fast", "paper")
+
+
+class EstimateStatus(enum.Enum):
+    """How much to trust one :class:`RotationEstimate`."""
+
+    #: A model was fitted with enough inliers.
+    OK = "ok"
+    #: The first frame (or the first after ``reset()``): identity by definition.
+    FIRST_FRAME = "first_frame"
+    #: Uniform/black frame or fewer matches than the minimum: the last orientation is held.
+    TOO_FEW_FEATURES = "too_few_features"
+    #: The frame is identical to the previous one: the last orientation is held.
+    REPEATED_FRAME = "repeated_frame"
+    #: A fit was made but failed its checks. Few inliers or an implausible jump: the last orientation is held.
+    #: The essential fit strayed from the rotation-only fit beyond what the parallax explains: the rotation-only
+    #: fit is used (``model == "rotation"``), since holding would turn the walker's motion into a jump.
+    LOW_QUALITY = "low_quality"
+
+    @property
+    def is_measured(self) -> bool:
+        """True when the rotation comes from the frame (not held)."""
+        return self in (EstimateStatus.OK, EstimateStatus.FIRST_FRAME)
+
+
+@dataclass(frozen=True, slots=True)
+class RotationSettings:
+    """Settings of :class:`RotationEstimator`; every length in pixels is at the video's full resolution.
+
+    fast method
+        ``tracking_scale``: track at this fraction of the input resolution (1.0 = full; 0.5 halves width and
+        height, about 3x cheaper, see benchmarks/results/rotation.md), but never narrower than
+        ``min_tracking_width_px`` (or the frame itself). ``max_features``: corners per keyframe.
+        ``min_feature_distance_px``: spacing of detected corners in a 640 px wide video (scaled with the
+        width, so a smaller video gets as many corners across its view). ``klt_window_px``/``klt_levels``: Lucas-Kanade
+        window (at tracking resolution) and pyramid levels. ``keyframe_max_frames``,
+        ``keyframe_min_track_fraction``, ``keyframe_max_rotation_deg``: start a new keyframe when any is
+        exceeded. ``keyframe_window``: keyframes kept for the sliding-window refinement of each new keyframe's
+        orientation (1 = plain chaining). ``feature_noise_px``: tracking noise assumed by the GRIC model selection.
+    both methods
+        ``min_inliers``: fewer inliers than this holds the orientation. ``inlier_px``: inlier threshold.
+        ``max_frame_rotation_deg``: a frame-to-frame change larger than this is rejected as implausible for a
+        chest-worn camera (held, LOW_QUALITY).
+    paper method
+        ``akaze_threshold``: AKAZE detector response threshold. ``match_radius_px``: a FLANN match must land
+        this close to where LK tracked the point. ``ratio_test``: Lowe's ratio. ``ransac_threshold_px``: 5-point
+        RANSAC threshold. ``bundle_adjust``: refine each pair by two-view bundle adjustment. ``max_ba_points``:
+        points used by that adjustment.
+    """
+
+    method: str = "fast"
+    tracking_scale: float = 0.5
+    min_tracking_width_px: int = 320
+    max_features: int = 160
+    min_feature_distance_px: float = 16.0
+    klt_window_px: int = 9
+    klt_levels: int = 2
+    keyframe_max_frames: int = 30
+    keyframe_min_track_fraction: float = 0.6
+    keyframe_max_rotation_deg: float = 8.0
+    keyframe_window: int = 4
+    feature_noise_px: float = 0.5
+    min_inliers: int = 12
+    inlier_px: float = 2.0
+    max_frame_rotation_deg: float = 15.0
+    akaze_threshold: float = 0.001
+    match_radius_px: float = 25.0
+    ratio_test: float = 0.8
+    ransac_threshold_px: float = 1.0
+    bundle_adjust: bool = True
+    max_ba_points: int = 150
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            msg = f"rotation method must be one of {', '.join(METHODS)}, got {self.method!r}"
+            raise ConfigError(msg)
+        checks = {
+            "tracking_scale": 0.1 <= self.tracking_scale <= 1.0,
+            "min_tracking_width_px": self.min_tracking_width_px >= 16,
+            "max_features": self.max_features >= 10,
+            "min_feature_distance_px": self.min_feature_distance_px > 0,
+            "klt_window_px": self.klt_window_px >= 3,
+            "klt_levels": 0 <= self.klt_levels <= 6,
+            "keyframe_max_frames": self.keyframe_max_frames >= 1,
+            "keyframe_min_track_fraction": 0.0 < self.keyframe_min_track_fraction <= 1.0,
+            "keyframe_max_rotation_deg": self.keyframe_max_rotation_deg > 0,
+            "keyframe_window": 1 <= self.keyframe_window <= 20,
+            "feature_noise_px": self.feature_noise_px > 0,
+            "min_inliers": self.min_inliers >= 5,
+            "inlier_px": self.inlier_px > 0,
+            "max_frame_rotation_deg": self.max_frame_rotation_deg > 0,
+            "akaze_threshold": self.akaze_threshold > 0,
+            "match_radius_px": self.match_radius_px > 0,
+            "ratio_test": 0.0 < self.ratio_test <= 1.0,
+            "ransac_threshold_px": self.ransac_threshold_px > 0,
+            "max_ba_points": self.max_ba_points >= 5,
+        }
+        bad = [name for name, ok in checks.items() if not ok]
+        if bad:
+            msg = "invalid rotation setting(s): " + ", ".join(f"{b}={getattr(self, b)!r}" for b in bad)
+            raise ConfigError(msg)
+
+
+DEFAULT_ROTATION_SETTINGS = RotationSettings()
+
+
+@dataclass(frozen=True, slots=True)
+class RotationEstimate:
+    """The camera orientation at ``t_s`` relative to the first frame.
+
+    ``rotation`` maps this frame's directions into the first frame's; ``angles_deg`` is (pitch, yaw, roll).
+    ``model`` is ``"rotation"`` (rotation-only/homography), ``"essential"``, ``"hold"`` (orientation held,
+    see ``status``) or ``"identity"`` (first frame). ``n_inliers`` counts matches that agree with the model,
+    ``n_tracks`` the matches tried, ``residual_px`` their median error, ``keyframe`` whether this frame became
+    a keyframe.
+    """
+
+    t_s: float
+    rotation: NDArray[np.float64]
+    angles_deg: NDArray[np.float64]
+    n_inliers: int
+    model: str
+    status: EstimateStatus
+    n_tracks: int = 0
+    residual_px: float = math.nan
+    keyframe: bool = False
+
+    def __post_init__(self) -> None:
+        R = np.array(self.rotation, dtype=float)
+        a = np.array(self.angles_deg, dtype=float)
+        R.setflags(write=False)
+        a.setflags(write=False)
+        object.__setattr__(self, "rotation", R)
+        object.__setattr__(self, "angles_deg", a)
+
+
+def grey_from_frame(frame: NDArray[np.uint8]) -> NDArray[np.uint8]:
+    """An 8-bit grey image from a BGR, BGRA or grey frame; InvalidInputError for anything else."""
+    import cv2  # noqa: PLC0415
+
+    f = np.asarray(frame)
+    if f.dtype != np.uint8:
+        msg = f"frame must be uint8, got {f.dtype}"
+        raise InvalidInputError(msg)
+    if f.ndim == 2:
+        return f
+    if f.ndim == 3 and f.shape[2] == 1:
+        return f[:, :, 0]
+    if f.ndim == 3 and f.shape[2] == 3:
+        return cv2.cvtColor(f, cv2.COLOR_BGR2GRAY)
+    if f.ndim == 3 and f.shape[2] == 4:
+        return cv2.cvtColor(f, cv2.COLOR_BGRA2GRAY)
+    msg = f"frame must have shape (H, W), (H, W, 3) or (H, W, 4), got {f.shape}"
+    raise InvalidInputError(msg)
+
+
+def make_estimate(t_s: float, rotation: NDArray[np.float64], **kwargs: object) -> RotationEstimate:
+    """A :class:`RotationEstimate` with its angles computed from ``rotation``."""
+    return RotationEstimate(t_s=float(t_s), rotation=rotation, angles_deg=angles_deg_from_rotation(rotation), **kwargs)
