@@ -39,8 +39,6 @@ from walkmon.gait.indicators import (
     Indicators,
     IndicatorSettings,
     compute_indicators,
-    read_indicators,
-    write_indicators,
 )
 from walkmon.imu.attitude import AttitudeSettings, ImuAttitudeFilter
 from walkmon.imu.fusion import CameraImuFusion, FusionSettings
@@ -50,9 +48,25 @@ from walkmon.rotation import (
     RotationEstimator,
     RotationSettings,
 )
+from walkmon.tables import read_indicators, write_indicators
+
+from walkmon.api import (  # isort: skip  (the front door, on top of the packages above)
+    Analysis,
+    Session,
+    analyze,
+    analyze_angles,
+    load_session,
+    open_video,
+)
 
 __all__ = [
     "AXES",
+    "Analysis",
+    "Session",
+    "analyze",
+    "analyze_angles",
+    "load_session",
+    "open_video",
     "GRAVITY_MS2",
     "AttitudeSettings",
     "CameraImuFusion",

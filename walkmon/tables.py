@@ -1,4 +1,5 @@
-"""Reading and writing the CSV tables walkmon exchanges (angles.csv, truth.csv, imu.csv, ...).
+"""Reading and writing the files walkmon exchanges: CSV tables (angles.csv, truth.csv, imu.csv, ...) and
+indicators.json.
 
 A table is a header line of column names, then one row of numbers per sample. Reading validates: the file
 exists and is text, the required columns are present, every value is a finite number, there is at least one
@@ -9,6 +10,7 @@ that names the file (and the row, where there is one).
 from __future__ import annotations
 
 import csv
+import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -21,9 +23,10 @@ from walkmon.consts import IMU_COLUMNS
 from walkmon.errors import InvalidInputError
 
 if TYPE_CHECKING:
+    from walkmon.gait.indicators import Indicators
     from walkmon.imu.recordings import ImuRecording
 
-__all__ = ["read_imu_csv", "read_table", "write_table"]
+__all__ = ["read_imu_csv", "read_indicators", "read_table", "write_indicators", "write_table"]
 
 
 def read_table(
@@ -133,3 +136,32 @@ def read_imu_csv(path: str | Path) -> ImuRecording:
     gyro = np.column_stack([cols["gx"], cols["gy"], cols["gz"]])
     accel = np.column_stack([cols["ax"], cols["ay"], cols["az"]])
     return ImuRecording(t, gyro, accel)
+
+
+def write_indicators(path: str | Path, indicators: Indicators) -> None:
+    """Write indicators.json (UTF-8, indented, keys in schema order, NaN as null)."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(json.dumps(indicators.to_dict(), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+
+
+def read_indicators(path: str | Path) -> Indicators:
+    """Read an indicators.json; a missing, unreadable or malformed file raises InvalidInputError (one line)."""
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        msg = f"{p}: no such file"
+        raise InvalidInputError(msg) from None
+    except IsADirectoryError:
+        msg = f"{p}: is a directory, expected indicators.json"
+        raise InvalidInputError(msg) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        msg = f"{p}: cannot read ({exc})"
+        raise InvalidInputError(msg) from None
+    except json.JSONDecodeError as exc:
+        msg = f"{p}: not valid JSON ({exc.msg} at line {exc.lineno})"
+        raise InvalidInputError(msg) from None
+    from walkmon.gait.indicators import indicators_from_dict  # noqa: PLC0415  (gait does no I/O)
+
+    return indicators_from_dict(doc, str(p))

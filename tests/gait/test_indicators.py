@@ -16,10 +16,9 @@ from walkmon.gait.indicators import (
     analyze_gait,
     compute_indicators,
     indicators_from_dict,
-    read_indicators,
     refined_extremum_values,
-    write_indicators,
 )
+from walkmon.tables import read_indicators, write_indicators
 
 FS = 30.0
 STEP_HZ = 1.8

@@ -227,7 +227,8 @@ def test_analyze_imu_save_stores_the_absolute_angles_for_the_report(
         for col in ("pitch_abs", "roll_abs"):
             values = np.array(stored[col], dtype=float)  # None (NULL) would become NaN
             assert np.all(np.isfinite(values)), (name, col)
-            assert np.allclose(values, offline[col], atol=1e-6), (name, col)  # angles.csv: 6 decimals
+            # angles.csv has 6 decimals for these columns with a video, 4 in IMU-only analysis; the log keeps all
+            assert np.allclose(values, offline[col], rtol=0, atol=5.001e-7 if name == "fused" else 5.001e-5), (name, col)
         assert np.ptp(np.array(stored["pitch_abs"], dtype=float)) > 0.5  # a walk, not a constant
         # fused: 1 per frame the IMU covered when a video was fused; no camera in IMU-only analysis -> NULL
         assert set(stored["fused"]) == ({1} if name == "fused" else {None})

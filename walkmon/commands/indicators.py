@@ -61,30 +61,14 @@ def gait_outputs(
     """Write ``out_dir/indicators.json`` and ``out_dir/report.html``; returns their paths and the Indicators.
 
     ``abs_angles_deg`` (N, 2): fused absolute pitch and roll at ``t_s`` (NaN where not fused) for the report.
-
-    The one function ``walkmon analyze`` and ``walkmon indicators`` share (and ``walkmon demo`` may call).
+    The analysis is :func:`walkmon.api.analyze_angles`, as ``walkmon analyze`` and the Python API do it.
     """
-    from walkmon.gait.indicators import (  # noqa: PLC0415
-        IndicatorSettings,
-        compute_indicators,
-        read_indicators,
-        write_indicators,
-    )
-    from walkmon.gait.report import write_report  # noqa: PLC0415
+    from walkmon.api import analyze_angles  # noqa: PLC0415
 
-    settings = IndicatorSettings(mode=mode)
-    baseline = read_indicators(baseline_path) if baseline_path else None
-    indicators = compute_indicators(t_s, angles_deg, settings, baseline)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    json_path = out / "indicators.json"
-    write_indicators(json_path, indicators)
-    meta = dict(meta or {})
-    if baseline_path:
-        meta.setdefault("baseline", str(baseline_path))
-    html_path = write_report(out / "report.html", t_s, angles_deg, indicators, baseline, meta, settings=settings,
-                             abs_angles_deg=abs_angles_deg)
-    return json_path, html_path, indicators
+    result = analyze_angles(t_s, angles_deg, baseline=baseline_path, mode=mode, abs_angles_deg=abs_angles_deg,
+                            meta=meta)
+    files = result.write(out_dir, angles=False)
+    return files["indicators.json"], files["report.html"], result.gait
 
 
 def _meta_beside(path: Path) -> dict[str, Any]:

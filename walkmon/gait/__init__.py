@@ -7,8 +7,6 @@ from walkmon.gait.indicators import (
     Indicators,
     IndicatorSettings,
     compute_indicators,
-    read_indicators,
-    write_indicators,
 )
 from walkmon.gait.live import LiveIndicators, LiveIndicatorSettings, LiveIndicatorStage
 from walkmon.gait.posture import LABELS, Classification, PostureThresholds, classify
@@ -26,6 +24,4 @@ __all__ = [
     "PostureThresholds",
     "classify",
     "compute_indicators",
-    "read_indicators",
-    "write_indicators",
 ]

@@ -37,13 +37,11 @@ The heavy lifting is in :func:`analyze_gait`, which also returns the intermediat
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -78,10 +76,8 @@ __all__ = [
     "cycle_extremums",
     "detect_standing",
     "indicators_from_dict",
-    "read_indicators",
     "refined_extremum_values",
     "step_asymmetry",
-    "write_indicators",
 ]
 
 _log = logging.getLogger(__name__)
@@ -819,30 +815,3 @@ def indicators_from_dict(doc: Mapping[str, Any], source: str = "indicators") -> 
             str(k): num(v, f"drift_removed_deg.{k}") for k, v in (doc.get("drift_removed_deg") or {}).items()
         },
     )
-
-
-def write_indicators(path: str | Path, indicators: Indicators) -> None:
-    """Write indicators.json (UTF-8, indented, keys in schema order, NaN as null)."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(json.dumps(indicators.to_dict(), indent=2, allow_nan=False) + "\n", encoding="utf-8")
-
-
-def read_indicators(path: str | Path) -> Indicators:
-    """Read an indicators.json; a missing, unreadable or malformed file raises InvalidInputError (one line)."""
-    p = Path(path)
-    try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        msg = f"{p}: no such file"
-        raise InvalidInputError(msg) from None
-    except IsADirectoryError:
-        msg = f"{p}: is a directory, expected indicators.json"
-        raise InvalidInputError(msg) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        msg = f"{p}: cannot read ({exc})"
-        raise InvalidInputError(msg) from None
-    except json.JSONDecodeError as exc:
-        msg = f"{p}: not valid JSON ({exc.msg} at line {exc.lineno})"
-        raise InvalidInputError(msg) from None
-    return indicators_from_dict(doc, str(p))

@@ -18,7 +18,6 @@ import logging
 import math
 from collections.abc import Mapping
 from datetime import UTC, datetime
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -35,7 +34,7 @@ from walkmon.gait.indicators import (
     analyze_gait,
 )
 
-__all__ = ["TABLE3_ROWS", "render_report_html", "write_report"]
+__all__ = ["TABLE3_ROWS", "render_report", "render_report_html"]
 
 _log = logging.getLogger(__name__)
 
@@ -289,8 +288,7 @@ reference paper (swing &phi; = a &minus; b and inclination &rho; = (a + b)/2 per
 """
 
 
-def write_report(
-    path: str | Path,
+def render_report(
     t_s: ArrayLike,
     angles_deg: ArrayLike,
     indicators: Indicators,
@@ -300,8 +298,8 @@ def write_report(
     settings: IndicatorSettings | None = None,
     reference_deg: ArrayLike | None = None,
     abs_angles_deg: ArrayLike | None = None,
-) -> Path:
-    """Write the self-contained report.html for one walk; returns its path.
+) -> str:
+    """The self-contained report.html of one walk, as a string (the caller writes it: gait does no I/O).
 
     The figures are recomputed with :func:`walkmon.gait.indicators.analyze_gait` in ``indicators.mode`` (or with
     ``settings``); the tables show ``indicators`` as given. ``abs_angles_deg`` (N, 2): the fused absolute
@@ -325,9 +323,4 @@ def write_report(
         # irregular time stamps (dropped frames): the analysis resampled the angles onto a uniform grid, and
         # the absolute angles are plotted beside them, so they go onto the same grid
         abs_angles_deg = np.column_stack([np.interp(analysis.t_s, t_in, abs_angles_deg[:, k]) for k in range(2)])
-    text = render_report_html(analysis, indicators, baseline, meta, abs_angles_deg=abs_angles_deg)
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(text, encoding="utf-8")
-    _log.info("wrote %s (%d kB)", p, len(text) // 1024)
-    return p
+    return render_report_html(analysis, indicators, baseline, meta, abs_angles_deg=abs_angles_deg)

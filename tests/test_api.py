@@ -1,0 +1,134 @@
+"""The Python API (walkmon.analyze, analyze_angles, open_video, load_session): the same numbers and files as the
+commands, checked against the simulator's truth."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import walkmon
+from walkmon.commands.cli import main
+from walkmon.errors import ConfigError, InvalidInputError
+from walkmon.tables import read_table
+
+
+@pytest.fixture(scope="module")
+def clip(tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201
+    from walkmon.simulate import simulate
+
+    return simulate(tmp_path_factory.mktemp("api") / "clip", walk="bend:6", seed=2, width=160, height=120, fps=20)
+
+
+@pytest.fixture(scope="module")
+def cli_out(clip, tmp_path_factory: pytest.TempPathFactory) -> Path:  # noqa: ANN001
+    out = tmp_path_factory.mktemp("api_cli") / "out"
+    assert main(["analyze", str(clip.video_path), "--calib", str(clip.camera_path), "--imu",
+                 str(clip.video_path.parent / "imu.csv"), "--out", str(out), "--no-progress"]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def result(clip):  # noqa: ANN001, ANN201
+    return walkmon.analyze(clip.video_path, calib=clip.camera_path, imu=clip.video_path.parent / "imu.csv")
+
+
+def test_api_angles_are_the_cli_angles(result, cli_out: Path) -> None:  # noqa: ANN001
+    lines = (cli_out / "angles.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    assert list(result.angles.dtype.names) == header
+    rows = [line.split(",") for line in lines[1:]]
+    assert len(rows) == len(result.angles)
+    for k, name in enumerate(header):
+        cells = [r[k] for r in rows]
+        values = result.angles[name]
+        if values.dtype.kind == "f":
+            digits = 4 if name in ("t", "pitch", "yaw", "roll") else 3 if name == "residual_px" else 6
+            assert [f"{v:.{digits}f}" for v in values] == cells, name
+        else:
+            assert [str(v) for v in values] == cells, name
+    assert result.indicators == json.loads((cli_out / "indicators.json").read_text())
+
+
+def test_api_write_gives_the_cli_files(result, cli_out: Path, tmp_path: Path) -> None:  # noqa: ANN001
+    files = result.write(tmp_path / "api")
+    assert sorted(files) == sorted(p.name for p in cli_out.iterdir())
+    for name in ("angles.csv", "indicators.json", "imu.json"):
+        assert files[name].read_bytes() == (cli_out / name).read_bytes(), name
+    assert files["report.html"].read_text().startswith("<!DOCTYPE html>")
+
+
+def test_api_angles_follow_the_simulator_truth_and_load_into_pandas(result, clip) -> None:  # noqa: ANN001
+    pd = pytest.importorskip("pandas")
+    df = pd.DataFrame(result.angles)
+    assert list(df.columns[:6]) == ["t", "pitch", "yaw", "roll", "pitch_abs", "roll_abs"]
+    assert pd.api.types.is_string_dtype(df["model"]) and df["n_inliers"].dtype.kind == "i"
+    truth = read_table(clip.video_path.parent / "truth.csv", ("t", "pitch", "yaw", "roll"))
+    assert len(df) == len(truth["t"])
+    for axis in ("pitch", "roll"):
+        err = df[axis].to_numpy() - (truth[axis] - truth[axis][0])
+        assert np.sqrt(np.mean(err**2)) < 1.5, axis
+    # a bent walk: the classifier says so, with the truth's forward lean
+    assert result.indicators["classification"]["label"] == "bend"
+
+
+def test_result_is_frozen(result) -> None:  # noqa: ANN001
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        result.angles = None
+    with pytest.raises(ValueError, match="read-only"):
+        result.angles["pitch"][0] = 99.0
+    doc = result.indicators
+    doc["classification"]["label"] = "changed"
+    assert result.indicators["classification"]["label"] == "bend"
+
+
+def test_imu_only_and_baseline_from_another_result(clip, result) -> None:  # noqa: ANN001
+    imu_only = walkmon.analyze(imu=clip.video_path.parent / "imu.csv", baseline=result)
+    assert imu_only.estimates == ()
+    assert imu_only.imu_info["mode"] == "imu_only"
+    assert list(imu_only.angles.dtype.names) == ["t", "pitch", "yaw", "roll", "pitch_abs", "roll_abs"]
+    # the same walk as its own baseline: nothing differs from normal
+    assert imu_only.gait.classification.label == "normal"
+
+
+def test_analyze_angles_is_what_walkmon_indicators_writes(clip, tmp_path: Path) -> None:  # noqa: ANN001
+    truth = clip.video_path.parent / "truth.csv"
+    assert main(["indicators", str(truth), "--out", str(tmp_path / "cli")]) == 0
+    table = read_table(truth, ("t", "pitch", "yaw", "roll"))
+    res = walkmon.analyze_angles(table["t"], np.column_stack([table[c] for c in ("pitch", "yaw", "roll")]))
+    assert res.indicators == json.loads((tmp_path / "cli" / "indicators.json").read_text())
+
+
+def test_open_video_and_load_session(clip, result, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:  # noqa: ANN001
+    with walkmon.open_video(clip.video_path) as video:
+        frames = list(video)
+        assert (video.width_px, video.height_px) == (160, 120)
+    assert len(frames) == len(result.angles)
+    assert frames[1][0] == pytest.approx(1 / video.fps)
+    sid = result.save(tmp_path / "db")
+    session = walkmon.load_session(sid, tmp_path / "db")
+    assert session.record["kind"] == "analyze" and session.record["camera"] == str(clip.video_path)
+    assert np.allclose(session.frames["pitch"], result.angles["pitch"])
+    assert np.allclose(session.frames["pitch_abs"], result.angles["pitch_abs"])
+    assert list(session.frames["model"]) == list(result.angles["model"])
+    assert len(session.hops) == 0 and session.hops.dtype.names[0] == "t_s"
+    # walkmon report ID is the session's analysis, written
+    assert main(["report", str(sid), "--data-dir", str(tmp_path / "db"), "--out", str(tmp_path / "rep")]) == 0
+    capsys.readouterr()
+    assert session.analyze().indicators == json.loads((tmp_path / "rep" / "indicators.json").read_text())
+    with pytest.raises(InvalidInputError, match="no session 99"):
+        walkmon.load_session(99, tmp_path / "db")
+
+
+def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:
+    with pytest.raises(InvalidInputError, match="give a VIDEO"):
+        walkmon.analyze()
+    with pytest.raises(ConfigError, match="unknown rotation method"):
+        walkmon.analyze(tmp_path / "x.mp4", method="magic")
+    with pytest.raises(InvalidInputError, match="no such video file"):
+        walkmon.analyze(tmp_path / "x.mp4")
+    with pytest.raises(InvalidInputError, match="shape"):
+        walkmon.analyze_angles([0, 1, 2], np.zeros((2, 3)))

@@ -1,0 +1,541 @@
+"""walkmon's Python API: the front door that ``walkmon analyze``, ``walkmon indicators`` and ``walkmon report``
+use too, so a script gets exactly what the commands write.
+
+    import walkmon, pandas
+    result = walkmon.analyze("walk.mp4", calib="camera.yaml")
+    df = pandas.DataFrame(result.angles)          # the angles.csv columns
+    result.indicators["classification"]["label"]  # the indicators.json document
+    result.write("out/")                          # angles.csv, indicators.json, report.html (+ imu.json)
+
+* :func:`analyze` -- a video (and/or an imu.csv) to an :class:`Analysis`;
+* :func:`analyze_angles` -- angles you already have (``t``, pitch, yaw, roll) to an :class:`Analysis`;
+* :func:`open_video` -- the frames of a video file, ``(t_s, frame_bgr)``;
+* :func:`load_session` -- a session of the session log (``walkmon live``, ``walkmon analyze --save``).
+
+This module reads and writes files (it is the front door); the packages it calls (rotation, imu, gait) do not.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from walkmon.errors import ConfigError, InvalidInputError
+from walkmon.gait.indicators import Indicators, IndicatorSettings, compute_indicators, indicators_from_dict
+
+if TYPE_CHECKING:
+    from walkmon.drivers.video_file import VideoFile
+    from walkmon.rotation.types import RotationEstimate
+
+__all__ = [
+    "Analysis",
+    "Session",
+    "analyze",
+    "analyze_angles",
+    "angle_columns",
+    "estimate_rotations",
+    "load_session",
+    "open_video",
+    "status_summary",
+]
+
+_log = logging.getLogger(__name__)
+
+#: Extra columns of a video's angles.csv after t,pitch,yaw,roll.
+EXTRA_COLUMNS = ("n_inliers", "n_tracks", "residual_px", "model", "status", "keyframe")
+
+#: Decimals per angles.csv column of a video analysis (others: 6).
+_PRECISION = {"t": 4, "pitch": 4, "yaw": 4, "roll": 4, "residual_px": 3, "n_inliers": 0, "n_tracks": 0, "keyframe": 0,
+              "visual_used": 0}
+
+#: (frames done, frames in the file's header; 0 when unknown), after every frame.
+ProgressCallback = Callable[[int, int], object]
+
+
+# --------------------------------------------------------------------------------------------- results
+def _structured(columns: Mapping[str, Any]) -> NDArray[Any]:
+    """A read-only numpy structured array of ``{name: column}`` (numbers as float64/int64, text as unicode)."""
+    arrays = {name: np.asarray(col) for name, col in columns.items()}
+    n = {len(a) for a in arrays.values()}
+    if len(n) > 1:
+        msg = f"columns differ in length: { {k: len(a) for k, a in arrays.items()} }"
+        raise ValueError(msg)
+    dtype = []
+    for name, a in arrays.items():
+        if a.dtype.kind in "iub":
+            dtype.append((name, np.int64))
+        elif a.dtype.kind == "f":
+            dtype.append((name, np.float64))
+        else:
+            width = max((len(str(v)) for v in a), default=1)
+            dtype.append((name, f"<U{max(width, 1)}"))
+    out = np.empty(n.pop() if n else 0, dtype=dtype)
+    for name, a in arrays.items():
+        out[name] = a if a.dtype.kind in "iubf" else [str(v) for v in a]
+    out.flags.writeable = False
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Analysis:
+    """The result of :func:`analyze` / :func:`analyze_angles` (frozen).
+
+    ``angles``: numpy structured array with the angles.csv columns (``pandas.DataFrame(result.angles)`` works);
+    ``indicators``: the indicators.json document (a fresh dict on every access); ``gait``: the same as
+    :class:`~walkmon.gait.indicators.Indicators`; ``estimates``: the rotation estimate of every frame (empty
+    without a video); ``imu_info``: what imu.json holds (None without an IMU). :meth:`write` writes the files of
+    ``walkmon analyze``.
+    """
+
+    angles: NDArray[Any]
+    gait: Indicators
+    estimates: tuple[RotationEstimate, ...] = ()
+    imu_info: Mapping[str, Any] | None = None
+    source: str = ""
+    method: str = ""
+    meta: Mapping[str, Any] = field(default_factory=dict)
+    settings: IndicatorSettings = field(default_factory=IndicatorSettings)
+    baseline: Indicators | None = None
+    reference_deg: NDArray[np.float64] | None = None
+    precision: Mapping[str, int] = field(default_factory=dict)
+
+    @property
+    def indicators(self) -> dict[str, Any]:
+        """The indicators.json document."""
+        return self.gait.to_dict()
+
+    @property
+    def t_s(self) -> NDArray[np.float64]:
+        return np.asarray(self.angles["t"], dtype=float)
+
+    @property
+    def angles_deg(self) -> NDArray[np.float64]:
+        """(N, 3) pitch, yaw, roll in degrees (relative to the first frame)."""
+        return np.column_stack([self.angles[c] for c in ("pitch", "yaw", "roll")]).astype(float)
+
+    @property
+    def abs_angles_deg(self) -> NDArray[np.float64] | None:
+        """(N, 2) gravity-referenced pitch and roll (NaN where not fused) when an IMU was used, else None."""
+        names = self.angles.dtype.names or ()
+        if "pitch_abs" not in names or "roll_abs" not in names:
+            return None
+        return np.column_stack([self.angles["pitch_abs"], self.angles["roll_abs"]]).astype(float)
+
+    def status_summary(self) -> str:
+        """One line on the frames' estimation status (see :func:`status_summary`); '' without a video."""
+        return status_summary(self.estimates) if self.estimates else ""
+
+    def report_html(self) -> str:
+        """report.html as a string."""
+        from walkmon.gait.report import render_report  # noqa: PLC0415  (matplotlib: only when asked)
+
+        meta = dict(self.meta)
+        return render_report(self.t_s, self.angles_deg, self.gait, self.baseline, meta, settings=self.settings,
+                             reference_deg=self.reference_deg, abs_angles_deg=self.abs_angles_deg)
+
+    def write(self, out_dir: str | Path, *, angles: bool = True) -> dict[str, Path]:
+        """Write the files of ``walkmon analyze`` into ``out_dir`` (created): angles.csv (``angles=False``: not),
+        imu.json when an IMU was used, indicators.json, report.html. Returns ``{file name: path}``."""
+        from walkmon.tables import write_indicators, write_table  # noqa: PLC0415
+
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        written: dict[str, Path] = {}
+        if angles:
+            written["angles.csv"] = out / "angles.csv"
+            write_table(written["angles.csv"], {name: self.angles[name] for name in self.angles.dtype.names or ()},
+                        precision=self.precision)
+            if self.imu_info is not None:
+                written["imu.json"] = out / "imu.json"
+                written["imu.json"].write_text(json.dumps(dict(self.imu_info), indent=1), encoding="utf-8")
+        written["indicators.json"] = out / "indicators.json"
+        write_indicators(written["indicators.json"], self.gait)
+        written["report.html"] = out / "report.html"
+        text = self.report_html()
+        written["report.html"].write_text(text, encoding="utf-8")
+        _log.info("wrote %s (%d kB)", written["report.html"], len(text) // 1024)
+        return written
+
+    def save(self, data_dir: str | Path | None = None, *, meta: Mapping[str, object] | None = None) -> int:
+        """Record this analysis as a session of kind ``analyze`` in the session log (``walkmon analyze --save``);
+        returns its id. ``data_dir``: the database folder (default ~/.local/share/walkmon); ``meta``: stored with
+        the session."""
+        from walkmon.live.session_log import default_data_dir, record_offline_session  # noqa: PLC0415
+
+        folder = Path(data_dir).expanduser() if data_dir is not None else default_data_dir()
+        absolute = self.abs_angles_deg
+        video = bool(self.estimates)
+        # with an IMU, the frames' pitch_abs/roll_abs as 'walkmon live' stores them, so 'walkmon report ID'
+        # shows their section; fused (1: the IMU covered the frame, 0: camera only) only when a video was fused
+        fused = None if absolute is None or not video else np.all(np.isfinite(absolute), axis=1).tolist()
+        return record_offline_session(
+            folder, self.t_s, self.angles_deg, source=self.source,
+            imu=str((self.imu_info or {}).get("imu", "")),
+            config={"method": self.method}, meta=dict(meta or {}),
+            extra=[(e.n_inliers, e.model, e.status.value) for e in self.estimates] or None,  # none: IMU-only
+            abs_angles_deg=absolute, fused=fused,
+        )
+
+
+def _baseline(baseline: Any) -> tuple[Indicators | None, str | None]:
+    """(Indicators, the path it came from) of any accepted ``baseline=`` value."""
+    from walkmon.tables import read_indicators  # noqa: PLC0415
+
+    if baseline is None:
+        return None, None
+    if isinstance(baseline, Analysis):
+        return baseline.gait, None
+    if isinstance(baseline, Indicators):
+        return baseline, None
+    if isinstance(baseline, Mapping):
+        return indicators_from_dict(baseline, "baseline"), None
+    if isinstance(baseline, str | Path):
+        return read_indicators(baseline), str(baseline)
+    msg = f"baseline must be an indicators.json path, its dict, Indicators or an Analysis, not {type(baseline).__name__}"
+    raise InvalidInputError(msg)
+
+
+def analyze_angles(
+    t_s: ArrayLike,
+    angles_deg: ArrayLike,
+    *,
+    baseline: Any = None,
+    mode: str = "walkmon",
+    abs_angles_deg: ArrayLike | None = None,
+    reference_deg: ArrayLike | None = None,
+    meta: Mapping[str, Any] | None = None,
+) -> Analysis:
+    """Gait indicators, classification and report of angles you already have.
+
+    ``t_s`` (N,) seconds, ``angles_deg`` (N, 3) pitch, yaw, roll relative to the start (conventions of
+    :mod:`walkmon.consts`); ``abs_angles_deg`` (N, 2) gravity-referenced pitch and roll (NaN where unknown) add
+    the report's absolute-angle section; ``reference_deg`` the upright stance (pitch, yaw, roll) when the
+    recording has no standing phase at its start; ``baseline`` the same person's normal walk (see :func:`analyze`).
+    """
+    t = np.asarray(t_s, dtype=float).reshape(-1)
+    a = np.asarray(angles_deg, dtype=float)
+    if a.shape != (len(t), 3):
+        msg = f"angles_deg must have shape ({len(t)}, 3) like t_s, got {a.shape}"
+        raise InvalidInputError(msg)
+    columns: dict[str, Any] = {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2]}
+    if abs_angles_deg is not None:
+        ab = np.asarray(abs_angles_deg, dtype=float)
+        if ab.shape != (len(t), 2):
+            msg = f"abs_angles_deg must have shape ({len(t)}, 2) like t_s, got {ab.shape}"
+            raise InvalidInputError(msg)
+        columns.update(pitch_abs=ab[:, 0], roll_abs=ab[:, 1])
+    return _gait_stage(columns, baseline=baseline, mode=mode, reference_deg=reference_deg, meta=meta)
+
+
+def _gait_stage(
+    columns: Mapping[str, Any],
+    *,
+    baseline: Any,
+    mode: str,
+    reference_deg: ArrayLike | None = None,
+    meta: Mapping[str, Any] | None = None,
+    **fields: Any,
+) -> Analysis:
+    """The later stages shared by every entry point: indicators and classification from the angle columns."""
+    base, base_path = _baseline(baseline)
+    settings = IndicatorSettings(mode=mode)
+    t = np.asarray(columns["t"], dtype=float)
+    a = np.column_stack([np.asarray(columns[c], dtype=float) for c in ("pitch", "yaw", "roll")])
+    ref = None if reference_deg is None else np.asarray(reference_deg, dtype=float)
+    indicators = compute_indicators(t, a, settings, base, reference_deg=ref)
+    meta = dict(meta or {})
+    if base_path:
+        meta.setdefault("baseline", base_path)
+    return Analysis(angles=_structured(columns), gait=indicators, meta=meta, settings=settings, baseline=base,
+                    reference_deg=ref, **fields)
+
+
+# --------------------------------------------------------------------------------------------- analyze
+def estimate_rotations(
+    frames: Any, estimator: Any, on_frame: Callable[[], object] | None = None
+) -> list[RotationEstimate]:
+    """Push every ``(t_s, frame)`` through ``estimator``; returns the list of RotationEstimate."""
+    out = []
+    for t_s, frame in frames:
+        out.append(estimator.push(frame, t_s))
+        if on_frame is not None:
+            on_frame()
+    return out
+
+
+def angle_columns(estimates: Sequence[RotationEstimate]) -> dict[str, Any]:
+    """The angles.csv columns of a list of RotationEstimate (t from the first frame)."""
+    if not estimates:
+        msg = "no frames to write"
+        raise InvalidInputError(msg)
+    t = np.array([e.t_s for e in estimates]) - estimates[0].t_s
+    a = np.array([e.angles_deg for e in estimates]).reshape(-1, 3)
+    return {
+        "t": t,
+        "pitch": a[:, 0],
+        "yaw": a[:, 1],
+        "roll": a[:, 2],
+        "n_inliers": np.array([e.n_inliers for e in estimates], dtype=int),
+        "n_tracks": np.array([e.n_tracks for e in estimates], dtype=int),
+        "residual_px": np.array([e.residual_px for e in estimates]),
+        "model": [e.model for e in estimates],
+        "status": [e.status.value for e in estimates],
+        "keyframe": np.array([int(e.keyframe) for e in estimates], dtype=int),
+    }
+
+
+def status_summary(estimates: Sequence[RotationEstimate]) -> str:
+    """``"480 frames: 470 ok, 8 low_quality (rotation-only), 2 held (too_few_features)"``.
+
+    ok counts the measured frames (``ok`` and the ``first_frame``); a frame whose status is not ok is either
+    still estimated (``low_quality`` with the rotation-only fit) and counted under its status, or held (model
+    ``hold``: the last orientation repeated) and counted under "held" with its statuses. Zero counts are left out.
+    """
+    from collections import Counter  # noqa: PLC0415
+
+    n_ok = sum(e.status.is_measured for e in estimates)
+    estimated = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model != "hold")
+    held = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model == "hold")
+    parts = [f"{n_ok} ok"] if n_ok else []
+    parts += [f"{n} {status}{' (rotation-only)' if status == 'low_quality' else ''}"
+              for status, n in sorted(estimated.items())]
+    if held:
+        why = ", ".join(status if len(held) == 1 else f"{n} {status}" for status, n in sorted(held.items()))
+        parts.append(f"{sum(held.values())} held ({why})")
+    return f"{len(estimates)} frames: {', '.join(parts) or 'none'}"
+
+
+def open_video(path: str | Path, *, decode_threads: int = 0) -> VideoFile:
+    """Open a video file: iterate it for ``(t_s, frame_bgr)`` (``t_s = i / fps``); it has ``fps``, ``width_px``,
+    ``height_px`` and ``frame_count``; use it as a context manager. A missing file raises InvalidInputError, one
+    OpenCV cannot decode SourceError."""
+    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
+
+    return VideoFile(path, decode_threads=decode_threads)
+
+
+def _video_rotations(
+    video: str | Path, calib: str | Path | None, method: str, progress: ProgressCallback | None
+) -> list[RotationEstimate]:
+    """The rotation of every frame of ``video`` (the camera model from ``calib``, scaled to the video's size)."""
+    from walkmon.camera.model import default_camera, read_camera_yaml  # noqa: PLC0415
+    from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
+
+    camera = read_camera_yaml(calib) if calib is not None else None
+    with open_video(video) as frames:
+        if camera is None:
+            camera = default_camera(frames.width_px, frames.height_px)
+        elif (camera.width_px, camera.height_px) != (frames.width_px, frames.height_px):
+            _log.warning(
+                "calibration is for %dx%d, video is %dx%d: scaling the intrinsics",
+                camera.width_px, camera.height_px, frames.width_px, frames.height_px,
+            )
+            camera = camera.scaled_to(frames.width_px, frames.height_px)
+        estimator = RotationEstimator(camera, RotationSettings(method=method))
+        done = [0]
+
+        def on_frame() -> None:
+            done[0] += 1
+            if progress is not None:
+                progress(done[0], frames.frame_count)
+
+        return estimate_rotations(frames, estimator, on_frame)
+
+
+def _imu_only_columns(imu_path: str | Path, imu_filter: str, offset_s: float) -> tuple[dict[str, Any], dict[str, Any]]:
+    """IMU-only analysis: the angles.csv columns and imu.json of an imu.csv."""
+    from walkmon.imu.fusion import FusionSettings  # noqa: PLC0415
+    from walkmon.imu.recordings import imu_only_columns  # noqa: PLC0415
+    from walkmon.tables import read_imu_csv  # noqa: PLC0415
+
+    imu = read_imu_csv(imu_path)
+    cols = imu_only_columns(imu, FusionSettings(time_offset_s=float(offset_s)), imu_filter=imu_filter)
+    info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter, "samples": len(imu.t_s),
+            "rate_hz": round(imu.rate_hz, 3), "rows": len(cols["t"]),
+            "axes": "IMU's own axes (no camera extrinsics)"}
+    return dict(cols), info
+
+
+def _fused_columns(
+    columns: dict[str, Any], estimates: Sequence[RotationEstimate], imu_path: str | Path, offset_s: float,
+    extrinsics: str,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The video's angles.csv columns with pitch/yaw/roll replaced by the angles fused with the IMU, plus
+    pitch_abs, roll_abs, visual_used and the video-only angles as pitch_video, ...; and imu.json (mode,
+    extrinsics estimate and residual, increments used)."""
+    from walkmon.imu.fusion import FusionSettings  # noqa: PLC0415
+    from walkmon.imu.recordings import extrinsics_from_angles, fused_columns  # noqa: PLC0415
+    from walkmon.tables import read_imu_csv  # noqa: PLC0415
+
+    imu = read_imu_csv(imu_path)
+    t = np.asarray(columns["t"], dtype=float)
+    ft = t + estimates[0].t_s
+    visual = np.column_stack([np.asarray(columns[k], dtype=float) for k in ("pitch", "yaw", "roll")])
+    ok = np.array([e.status.is_measured for e in estimates], dtype=bool)
+    settings = FusionSettings(time_offset_s=float(offset_s))
+    info: dict[str, Any] = {"mode": "fused", "imu": str(imu_path), "samples": len(imu.t_s),
+                            "rate_hz": round(imu.rate_hz, 3)}
+    try:
+        ext = extrinsics_from_angles(imu, ft, visual, ok)
+        info["extrinsics_estimate"] = ext.to_dict()
+    except InvalidInputError as exc:
+        ext = None
+        info["extrinsics_estimate"] = f"not estimated: {exc}"
+        if extrinsics == "estimate":
+            raise
+    if extrinsics == "estimate" and ext is not None and not ext.well_conditioned:
+        msg = (f"cannot estimate the IMU-camera rotation from this recording (it rotated about one axis only: "
+               f"excitation {ext.axis_excitation:.3f}, correlation {ext.correlation:.2f}); walk longer or give none")
+        raise InvalidInputError(msg)
+    if extrinsics == "estimate" and ext is not None:
+        settings = FusionSettings(camera_from_imu=tuple(ext.camera_from_imu.ravel()), time_offset_s=ext.time_offset_s)
+        _log.info("using the estimated extrinsics (residual %.2f deg/s)", ext.residual_deg_s)
+    info["extrinsics_used"] = {"camera_from_imu": settings.camera_from_imu_matrix.round(6).tolist(),
+                               "time_offset_s": settings.time_offset_s}
+    cols, track = fused_columns(imu, ft, visual, ok, settings)
+    out: dict[str, Any] = {"t": t}
+    out.update({k: cols[k] for k in ("pitch", "yaw", "roll", "pitch_abs", "roll_abs")})
+    out["visual_used"] = np.asarray(cols["visual_used"], dtype=int)  # 0/1
+    out.update({"pitch_video": visual[:, 0], "yaw_video": visual[:, 1], "roll_video": visual[:, 2]})
+    out.update({k: v for k, v in columns.items() if k not in ("t", "pitch", "yaw", "roll")})
+    info["visual_increments_used"] = int(track.visual_used.sum())
+    info["visual_increments_rejected"] = int(track.frames_rejected)
+    return out, info
+
+
+def analyze(
+    video: str | Path | None = None,
+    *,
+    imu: str | Path | None = None,
+    calib: str | Path | None = None,
+    method: str = "fast",
+    baseline: Any = None,
+    mode: str = "walkmon",
+    imu_filter: str = "eskf",
+    imu_offset_s: float = 0.0,
+    imu_extrinsics: str = "identity",
+    progress: ProgressCallback | None = None,
+) -> Analysis:
+    """Analyse a walk recorded by a chest-worn camera (and/or an IMU): what ``walkmon analyze`` computes.
+
+    ``video``: a video file (any format OpenCV/FFmpeg reads); ``imu``: an imu.csv (``t,gx,gy,gz,ax,ay,az``; s,
+    rad/s, m/s2), fused with the video, or analysed alone when ``video`` is None; ``calib``: a ROS camera_info
+    YAML (default: 70 deg HFOV pinhole, scaled to the video); ``method``: ``"fast"`` or ``"paper"``;
+    ``baseline``: the same person's normal walk (indicators.json path, its dict, Indicators or an Analysis):
+    classify relative to it; ``mode``: ``"walkmon"`` or ``"paper"`` indicator processing; ``imu_filter``:
+    IMU-only attitude filter (``eskf``, ``eskf-handheld``, ``vqf``); ``imu_offset_s``: added to IMU times to
+    put them on the video clock; ``imu_extrinsics``: ``"identity"`` or ``"estimate"`` (from this recording);
+    ``progress(done, total)``: called after every frame. Bad input raises a :class:`~walkmon.errors.WalkmonError`
+    with a one-line message.
+    """
+    if method not in ("fast", "paper"):
+        msg = f"unknown rotation method {method!r}; expected fast or paper"
+        raise ConfigError(msg)
+    if imu_extrinsics not in ("identity", "estimate"):
+        msg = f"unknown imu_extrinsics {imu_extrinsics!r}; expected identity or estimate"
+        raise ConfigError(msg)
+    if not math.isfinite(float(imu_offset_s)):
+        msg = f"imu_offset_s must be a finite number of seconds, got {imu_offset_s!r}"
+        raise ConfigError(msg)
+    estimates: list[RotationEstimate] = []
+    imu_info: dict[str, Any] | None = None
+    if video is None:  # IMU-only analysis: the IMU's attitude, then the same gait stages
+        if imu is None:
+            msg = "give a VIDEO, or --imu IMU_CSV for IMU-only analysis"
+            raise InvalidInputError(msg)
+        if imu_extrinsics == "estimate":
+            msg = "--imu-extrinsics estimate needs a VIDEO (the camera's rotation is what the IMU is aligned to)"
+            raise ConfigError(msg)
+        columns, imu_info = _imu_only_columns(imu, imu_filter, imu_offset_s)
+        precision = dict.fromkeys(columns, 4)
+        source = f"IMU only: {imu}"
+    else:
+        estimates = _video_rotations(video, calib, method, progress)
+        columns = angle_columns(estimates)
+        if imu is not None:  # camera-IMU fusion: fused pitch/yaw/roll, + pitch_abs/roll_abs, *_video kept
+            columns, imu_info = _fused_columns(columns, estimates, imu, imu_offset_s, imu_extrinsics)
+        precision = dict(_PRECISION)
+        source = str(video)
+    return _gait_stage(columns, baseline=baseline, mode=mode, meta={"video": source, "rotation method": method},
+                       estimates=tuple(estimates), imu_info=imu_info, source=source, method=method,
+                       precision=precision)
+
+
+# --------------------------------------------------------------------------------------------- sessions
+def _column(values: Sequence[object], text: bool) -> NDArray[Any]:
+    if text:
+        return np.asarray(["" if v is None else str(v) for v in values], dtype=str)
+    return np.asarray([math.nan if v is None else v for v in values], dtype=float)
+
+
+_SESSION_TEXT = {"model", "status", "label", "json", "kind", "state", "message", "reason"}
+
+
+@dataclass(frozen=True, eq=False)
+class Session:
+    """A logged session (:func:`load_session`): its ``record`` (the sessions row: kind, camera, imu,
+    started_utc, ended_utc, end_reason, config, versions, meta, ...) and its tables as numpy structured arrays
+    (NULL as NaN, or '' in text columns): ``frames``, ``imu``, ``hops``, ``alerts``, ``calibrations``."""
+
+    id: int
+    record: Mapping[str, Any]
+    frames: NDArray[Any]
+    imu: NDArray[Any]
+    hops: NDArray[Any]
+    alerts: NDArray[Any]
+    calibrations: NDArray[Any]
+
+    def analyze(self, *, baseline: Any = None) -> Analysis:
+        """The offline analysis of the session's frames (what ``walkmon report ID`` writes): indicators relative
+        to its first standing calibration, if any, and the fused absolute angles when an IMU was fused."""
+        t = np.asarray(self.frames["t_s"], dtype=float)
+        a = (np.column_stack([self.frames[c] for c in ("pitch", "yaw", "roll")]).astype(float) if t.size
+             else np.empty((0, 3)))
+        ok = np.all(np.isfinite(a), axis=1) if t.size else np.zeros(0, bool)
+        t, a = t[ok], a[ok]
+        # schema 2: the fused gravity-referenced angles (NULL where not fused, or in a camera-only session)
+        absolute = np.column_stack([self.frames["pitch_abs"], self.frames["roll_abs"]])[ok] if ok.size else None
+        if absolute is not None and not np.isfinite(absolute).any():
+            absolute = None
+        if t.size < 16:
+            msg = f"session {self.id} has {t.size} frames with angles: too few for a report"
+            raise InvalidInputError(msg)
+        cal = self.calibrations
+        reference = np.array([cal["pitch"][0], cal["yaw"][0], cal["roll"][0]], dtype=float) if len(cal) else None
+        r = self.record
+        meta = {"session": self.id, "kind": r["kind"], "source": r["camera"], "started_utc": r["started_utc"],
+                "ended_utc": r["ended_utc"], "end_reason": r["end_reason"], "frames": int(t.size)}
+        return analyze_angles(t - t[0], a, baseline=baseline, abs_angles_deg=absolute, reference_deg=reference,
+                              meta=meta)
+
+
+def load_session(session_id: int, data_dir: str | Path | None = None) -> Session:
+    """A session of the session log in ``data_dir`` (default ~/.local/share/walkmon); see :class:`Session`.
+    An unknown id or a missing database raises InvalidInputError."""
+    from walkmon.live.session_log import (  # noqa: PLC0415
+        TABLE_COLUMNS,
+        default_data_dir,
+        open_database,
+        read_session_table,
+        session_record,
+    )
+
+    folder = Path(data_dir).expanduser() if data_dir is not None else default_data_dir()
+    conn = open_database(folder, create=False)
+    try:
+        record = session_record(conn, int(session_id))
+        tables = {}
+        for name in TABLE_COLUMNS:
+            cols = read_session_table(conn, int(session_id), name)
+            tables[name] = _structured({c: _column(v, c in _SESSION_TEXT) for c, v in cols.items()})
+    finally:
+        conn.close()
+    return Session(id=int(session_id), record=record, **tables)
