@@ -5,11 +5,10 @@ Importing walkmon never touches hardware. Public names are listed once, here.
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
-
 from pathlib import Path as _Path
 
 from walkmon._checkout import map_checkout_drivers as _map_checkout_drivers
+from walkmon._version import __version__
 
 _map_checkout_drivers(_Path(__file__).resolve().parent)  # `drivers/` is walkmon.drivers in a checkout too
 

@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 from types import ModuleType
 
-from walkmon import __version__
+from walkmon._version import __version__
 from walkmon.errors import WalkmonError
 
 __all__ = ["main"]
@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "walkmon.commands.analyze",
     "walkmon.commands.indicators",
     "walkmon.commands.live",
+    "walkmon.commands.config",
     "walkmon.commands.sessions",
     "walkmon.commands.report",
 )

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from walkmon import __version__
+from walkmon._version import __version__
 from walkmon.consts import AXES
 from walkmon.errors import InvalidInputError
 from walkmon.gait.indicators import (

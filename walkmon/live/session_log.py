@@ -122,7 +122,7 @@ def default_data_dir() -> Path:
 
 def versions() -> dict[str, str]:
     """Versions of walkmon, Python and the main libraries, recorded with each session."""
-    from walkmon import __version__  # noqa: PLC0415
+    from walkmon._version import __version__  # noqa: PLC0415
 
     out = {"walkmon": __version__, "python": platform.python_version(), "platform": platform.platform()}
     for mod in ("numpy", "cv2", "scipy"):

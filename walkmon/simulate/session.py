@@ -165,7 +165,7 @@ class SimulatedSession:
 
     def meta(self) -> dict[str, Any]:
         """meta.json content (without file names and timings)."""
-        from walkmon import __version__  # noqa: PLC0415
+        from walkmon._version import __version__  # noqa: PLC0415
 
         cam = self.camera
         imu = self.imu_settings
