@@ -29,7 +29,7 @@ import time
 from typing import Any
 
 from walkmon.drivers.camera_base import CameraSource, Frame
-from walkmon.drivers.imu_types import ImuSample
+from walkmon.drivers.imu_types import ImuBatch, ImuSample
 
 from walkmon.errors import SourceDisconnected, SourceError, SourceTimeout
 
@@ -146,8 +146,9 @@ class DepthaiCamera(CameraSource):
 
 
 class DepthaiImu:
-    """The on-board IMU of an open :class:`DepthaiCamera` (``imu=1``) as an IMU source: ``read()`` returns one
-    :class:`~walkmon.drivers.imu_types.ImuSample` (device clock, IMU axes) or raises SourceTimeout when none
+    """The on-board IMU of an open :class:`DepthaiCamera` (``imu=1``) as an IMU source: ``read()`` returns the
+    :class:`~walkmon.drivers.imu_types.ImuSample` s received (device clock, IMU axes) as an
+    :class:`~walkmon.drivers.imu_types.ImuBatch`, or raises SourceTimeout when none
     came within 0.2 s, also while the camera is closed or reconnecting (the camera owns the device; its
     reconnection brings the IMU back)."""
 
@@ -165,7 +166,7 @@ class DepthaiImu:
             raise SourceError(msg)
         self._pending.clear()
 
-    def read(self) -> ImuSample:
+    def read(self) -> ImuBatch:
         deadline = time.monotonic() + 0.2
         while not self._pending:
             queue = self.camera.imu_queue
@@ -183,7 +184,9 @@ class DepthaiImu:
                 time.sleep(0.002)
                 continue
             self._pending.extend(samples_from_imu_data(data))
-        return self._pending.popleft()
+        batch = ImuBatch(tuple(self._pending))
+        self._pending.clear()
+        return batch
 
     def close(self) -> None:
         self._pending.clear()

@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 import time
 from pathlib import Path
+from typing import Any
 
 from walkmon.drivers.camera_base import CameraSource, Frame
 
@@ -33,7 +34,7 @@ class FileCamera(CameraSource):
         self.loop = loop
         self._fps_override = fps
         self._decode_threads = decode_threads
-        self._video = None
+        self._video: Any = None  # a VideoFile while open
         self._index = 0
         self._t_offset_s = 0.0
         self._last_t_s = 0.0

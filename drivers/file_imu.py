@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import time
 
-from walkmon.drivers.imu_types import ImuSample
+from typing import Any
+
+from walkmon.drivers.imu_types import ImuBatch, ImuSample
 
 from walkmon.consts import IMU_COLUMNS
 from walkmon.errors import SourceDisconnected, SourceError
@@ -13,7 +15,8 @@ __all__ = ["FileImu"]
 
 
 class FileImu:
-    """Reads the whole CSV at open; ``read()`` returns the next sample or raises SourceDisconnected at the end."""
+    """Reads the whole CSV at open; ``read()`` returns the next sample (a batch of one) or raises
+    SourceDisconnected at the end (an :class:`~walkmon.drivers.imu_types.ImuSource`)."""
 
     reconnectable = False
 
@@ -21,7 +24,7 @@ class FileImu:
         self.url, self.path, self.realtime = url, path, realtime
         #: realtime=0 reads as fast as possible: the pipeline then takes samples up to each frame's time
         self.live = realtime
-        self._rows: dict[str, object] | None = None
+        self._rows: dict[str, Any] | None = None
         self._i = 0
         self._t0_mono = 0.0
 
@@ -37,23 +40,24 @@ class FileImu:
         self._i = 0
         self._t0_mono = time.monotonic()
 
-    def read(self) -> ImuSample:
+    def read(self) -> ImuBatch:
         if self._rows is None:
             msg = f"{self.url}: not open"
             raise SourceError(msg)
         r = self._rows
-        if self._i >= len(r["t"]):  # type: ignore[arg-type]
+        if self._i >= len(r["t"]):
             msg = f"{self.url}: end of IMU recording"
             raise SourceDisconnected(msg)
         i = self._i
         self._i += 1
-        t = float(r["t"][i])  # type: ignore[index]
+        t = float(r["t"][i])
         if self.realtime:
             delay = self._t0_mono + t - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
-        return ImuSample(t, tuple(float(r[c][i]) for c in ("gx", "gy", "gz")),  # type: ignore[arg-type,index]
-                         tuple(float(r[c][i]) for c in ("ax", "ay", "az")))  # type: ignore[index]
+        gyr = (float(r["gx"][i]), float(r["gy"][i]), float(r["gz"][i]))
+        acc = (float(r["ax"][i]), float(r["ay"][i]), float(r["az"][i]))
+        return ImuBatch((ImuSample(t, gyr, acc),))
 
     def close(self) -> None:
         self._rows = None

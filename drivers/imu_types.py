@@ -1,4 +1,5 @@
-"""The IMU sample every IMU driver and parser produces.
+"""The IMU sample every IMU driver and parser produces, the batch every IMU source returns, and the
+:class:`ImuSource` contract (beside :class:`~walkmon.drivers.camera_base.CameraSource`).
 
 Units are in the field names: seconds, rad/s, m/s², degrees. Accelerations are specific force (at rest with y
 pointing down a sensor reads ``ay = -9.81``), the convention of :mod:`walkmon.consts`.
@@ -7,8 +8,9 @@ pointing down a sensor reads ``ay = -9.81``), the convention of :mod:`walkmon.co
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
 
-__all__ = ["ImuSample", "ParserStats"]
+__all__ = ["ImuBatch", "ImuSample", "ImuSource", "ParserStats"]
 
 Vector3 = tuple[float, float, float]
 
@@ -54,3 +56,37 @@ class ParserStats:
     incomplete_samples: int = 0
     #: Samples produced.
     samples: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class ImuBatch:
+    """What one :meth:`ImuSource.read` returns: the samples in arrival order (possibly none), and what went wrong
+    since the previous batch: ``overflow`` / ``dropped_samples`` when the driver's queue was full; a parser's
+    totals where there is one (serial IMUs)."""
+
+    samples: tuple[ImuSample, ...]
+    overflow: bool = False
+    dropped_samples: int = 0
+    parser_stats: ParserStats | None = None
+
+
+@runtime_checkable
+class ImuSource(Protocol):
+    """Every IMU source (serial, file, OAK/depthai): ``open()``, then ``read()`` until ``close()``.
+
+    ``read()`` returns an :class:`ImuBatch`; it raises :class:`~walkmon.errors.SourceTimeout` when nothing came
+    for a while (the caller retries) and :class:`~walkmon.errors.SourceDisconnected` when the device went away
+    or a recording ended. ``live``: a real-time device (a consumer that falls behind drops samples) or, False, a
+    recording read as fast as possible (the consumer waits, drops nothing). ``reconnectable``: whether the
+    consumer may reopen it after a disconnection.
+    """
+
+    url: str
+    live: bool
+    reconnectable: bool
+
+    def open(self) -> None: ...
+
+    def read(self) -> ImuBatch: ...
+
+    def close(self) -> None: ...

@@ -25,6 +25,7 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from types import TracebackType
+from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
 from walkmon.drivers.imu_protocols import (
@@ -33,7 +34,7 @@ from walkmon.drivers.imu_protocols import (
     ImuParser,
     parser_for_protocol,
 )
-from walkmon.drivers.imu_types import ImuSample, ParserStats
+from walkmon.drivers.imu_types import ImuBatch, ImuSample, ParserStats
 
 from walkmon.errors import ConfigError, SourceDisconnected, SourceError
 
@@ -106,17 +107,6 @@ def settings_from_url(url: str) -> SerialImuSettings:
     return SerialImuSettings(port=port, baud=baud, protocol=options.get("protocol", "witmotion"), csv_units=units)
 
 
-@dataclass(frozen=True, slots=True)
-class ImuBatch:
-    """What one :meth:`SerialImu.read` returns: the samples in arrival order, and what went wrong since the
-    previous batch (``overflow`` / ``dropped_samples`` when the queue was full) plus the parser's totals."""
-
-    samples: tuple[ImuSample, ...]
-    overflow: bool
-    dropped_samples: int
-    parser_stats: ParserStats
-
-
 class SerialImu:
     """A serial IMU with a reader thread. ``start()`` opens the port, ``read()`` returns batches, ``stop()``
     ends the thread, ``close()`` releases everything; also a context manager (``with SerialImu(s) as imu:``)."""
@@ -130,7 +120,7 @@ class SerialImu:
         self._error: BaseException | None = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._serial = None
+        self._serial: Any = None  # a serial.Serial once started
 
     # -- lifecycle -------------------------------------------------------------------------------------------
     def start(self) -> SerialImu:

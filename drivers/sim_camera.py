@@ -13,6 +13,7 @@ import logging
 import re
 import time
 from collections.abc import Iterator
+from typing import Any
 
 from walkmon.drivers.camera_base import CameraSource, Frame
 
@@ -59,7 +60,7 @@ class SimCamera(CameraSource):
         except ImportError as exc:
             msg = f"{self.url}: the simulator (walkmon.simulate) is not available: {exc}"
             raise SourceError(msg) from exc
-        kwargs: dict[str, object] = {"seed": self.seed, "width": self.width, "height": self.height,
+        kwargs: dict[str, Any] = {"seed": self.seed, "width": self.width, "height": self.height,
                                      "fps": self.fps, "distortion": self.distortion}
         params = inspect.signature(simulate.iter_frames).parameters
         if not any(p.kind is p.VAR_KEYWORD for p in params.values()):
@@ -101,7 +102,7 @@ class SimCamera(CameraSource):
             delay = self._t0_mono + float(t_s) - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
-        truth_t = tuple(float(v) for v in truth) if truth is not None else None
+        truth_t = tuple(float(v) for v in truth) if truth is not None else None  # type: ignore[attr-defined]
         frame = Frame(float(t_s), image, self._index, truth_t)  # type: ignore[arg-type]
         self._index += 1
         return frame

@@ -28,6 +28,7 @@ from collections.abc import Callable
 from typing import Any
 from urllib.parse import parse_qsl
 
+from walkmon.drivers.imu_types import ImuBatch, ImuSource
 from walkmon.errors import ConfigError
 
 __all__ = ["CAMERA_SCHEMES", "IMU_SCHEMES", "open_camera", "open_imu", "parse_source_url"]
@@ -142,7 +143,7 @@ def open_camera(url: str):  # noqa: ANN201 - a CameraSource
     return SimCamera(url, target, **opts)
 
 
-def open_imu(url: str, camera: Any = None):  # noqa: ANN201 - an IMU source
+def open_imu(url: str, camera: Any = None) -> ImuSource:
     """A (not yet opened) IMU source for ``url``: ``serial:`` (serial IMU driver), ``file:imu.csv``, or
     ``depthai:`` (the on-board IMU of ``camera``, which must be a ``depthai:`` camera source)."""
     if isinstance(url, str) and url.lower().startswith("serial:"):
@@ -170,9 +171,11 @@ def open_imu(url: str, camera: Any = None):  # noqa: ANN201 - an IMU source
 
 
 class _SerialImuSource:
-    """Adapts :class:`walkmon.drivers.serial_imu.SerialImu` (start/read batches/close) to open/read/close."""
+    """Adapts :class:`walkmon.drivers.serial_imu.SerialImu` (start/read batches/close) to the
+    :class:`~walkmon.drivers.imu_types.ImuSource` contract (open/read/close)."""
 
     reconnectable = False
+    live = True
 
     def __init__(self, url: str, imu: Any) -> None:
         self.url = url
@@ -181,9 +184,10 @@ class _SerialImuSource:
     def open(self) -> None:
         self._imu.start()
 
-    def read(self) -> Any:
+    def read(self) -> ImuBatch:
         """An ``ImuBatch`` (samples + overflow flag); SourceDisconnected when the device went away."""
-        return self._imu.read(0.2)
+        batch: ImuBatch = self._imu.read(0.2)
+        return batch
 
     def close(self) -> None:
         self._imu.close()

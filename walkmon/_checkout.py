@@ -33,4 +33,4 @@ def map_checkout_drivers(package_dir: Path) -> None:
     spec.loader.exec_module(module)
     parent = sys.modules.get("walkmon")
     if parent is not None:
-        parent.drivers = module  # what the import system does for a subpackage it loads itself
+        parent.drivers = module  # type: ignore[attr-defined]  # what the import system does for a subpackage it loads itself

@@ -68,7 +68,7 @@ def _structured(columns: Mapping[str, Any]) -> NDArray[Any]:
     if len(n) > 1:
         msg = f"columns differ in length: { {k: len(a) for k, a in arrays.items()} }"
         raise ValueError(msg)
-    dtype = []
+    dtype: list[tuple[str, Any]] = []
     for name, a in arrays.items():
         if a.dtype.kind in "iub":
             dtype.append((name, np.int64))

@@ -115,7 +115,7 @@ def test_file_imu_reads_samples_then_ends(tmp_path: Path) -> None:
     p.write_text("t,gx,gy,gz,ax,ay,az\n0.0,0.1,0.2,0.3,0,-9.81,0\n0.005,0.1,0.2,0.3,0,-9.81,0.1\n")
     imu = open_imu(f"file:{p}")
     imu.open()
-    a, b = imu.read(), imu.read()
+    (a,), (b,) = imu.read().samples, imu.read().samples  # an ImuBatch of one sample per read
     with pytest.raises(SourceDisconnected):
         imu.read()
     imu.close()

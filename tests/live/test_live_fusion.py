@@ -196,7 +196,7 @@ def test_extrinsics_rotate_imu_axes_into_the_camera_frame() -> None:
 
 
 def test_pipeline_keeps_running_when_the_imu_disconnects(tmp_path: Path, GaitSource, TruthEstimator) -> None:
-    from walkmon.drivers.imu_types import ImuSample
+    from walkmon.drivers.imu_types import ImuBatch, ImuSample
 
     from walkmon.gait.live import LiveIndicatorStage
     from walkmon.live.alerts import AlertStage
@@ -217,12 +217,12 @@ def test_pipeline_keeps_running_when_the_imu_disconnects(tmp_path: Path, GaitSou
         def open(self) -> None:
             self.i = 0
 
-        def read(self) -> ImuSample:
+        def read(self) -> ImuBatch:
             if imu.t_s[self.i] > 4.0:
                 raise SourceDisconnected("test:imu: unplugged")
             self.i += 1
             k = self.i - 1
-            return ImuSample(float(imu.t_s[k]), tuple(imu.gyroscope_rps[k]), tuple(imu.accelerometer_mps2[k]))
+            return ImuBatch((ImuSample(float(imu.t_s[k]), tuple(imu.gyroscope_rps[k]), tuple(imu.accelerometer_mps2[k])),))
 
         def close(self) -> None:
             pass

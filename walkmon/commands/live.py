@@ -9,7 +9,7 @@ import logging
 import math
 import signal
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -100,7 +100,7 @@ def _signals(pipeline: Any) -> Iterator[None]:
     def on_usr1(_signum: int, _frame: object) -> None:
         pipeline.request_calibration()
 
-    handlers = {signal.SIGINT: on_stop, signal.SIGTERM: on_stop}
+    handlers: dict[int, Callable[[int, object], None]] = {signal.SIGINT: on_stop, signal.SIGTERM: on_stop}
     if hasattr(signal, "SIGUSR1"):
         handlers[signal.SIGUSR1] = on_usr1
     try:

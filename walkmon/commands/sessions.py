@@ -63,7 +63,7 @@ def _list(args: argparse.Namespace) -> int:
     out.write(f"{'id':>4}  {'kind':<7} {'started (UTC)':<23} {'duration':>9} {'frames':>7} {'dropped':>7} "
               f"{'hops':>5} {'alerts':>6}  {'end':<24} source\n")
     for s in sessions:
-        end = s.end_reason if s.ended_utc else "(running or cut off)"
+        end = (s.end_reason or "") if s.ended_utc else "(running or cut off)"
         out.write(f"{s.id:>4}  {s.kind:<7} {s.started_utc[:23]:<23} {s.duration_s:>8.1f}s {s.n_frames:>7} "
                   f"{s.n_dropped:>7} {s.n_hops:>5} {s.n_alerts:>6}  {end[:24]:<24} {s.camera}\n")
     if not sessions:

@@ -775,8 +775,8 @@ def indicators_from_dict(doc: Mapping[str, Any], source: str = "indicators") -> 
         if lacking:
             msg = f"{source}: axes.{a} lacks {', '.join(lacking)}"
             raise InvalidInputError(msg)
-        axes[a] = AxisIndicators(
-            *(num(d[f], f"axes.{a}.{f}") for f in fields),
+        axes[a] = AxisIndicators(  # type: ignore[misc]  # the 4 positional fields, then the keywords
+            *(num(d[f], f"axes.{a}.{f}") for f in fields),  # type: ignore[arg-type]
             n_cycles=int(num(d.get("n_cycles", 0), f"axes.{a}.n_cycles") or 0),
             swing_std=num(d.get("swing_std"), f"axes.{a}.swing_std"),
             inclination_std=num(d.get("inclination_std"), f"axes.{a}.inclination_std"),

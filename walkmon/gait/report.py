@@ -200,12 +200,13 @@ def _indicator_table(doc: Mapping[str, Any], base: Mapping[str, Any] | None) -> 
         rows.append(row + "</tr>")
     extra = [("cadence [steps/min]", "cadence_spm", 1), ("walking analysed [s]", "walking_s", 1)]
     for label, key, digits in extra:
-        v = doc.get(key)
-        row = f"<tr><td>{label}</td><td>{_fmt(None if v is None else float(v), digits)}</td>"
+        value = doc.get(key)
+        row = f"<tr><td>{label}</td><td>{_fmt(None if value is None else float(value), digits)}</td>"
         if base is not None:
-            b = base.get(key)
-            d = None if (v is None or b is None) else float(v) - float(b)
-            row += f"<td>{_fmt(None if b is None else float(b), digits)}</td><td>{_fmt(d, digits)}</td>"
+            base_value = base.get(key)
+            d = None if (value is None or base_value is None) else float(value) - float(base_value)
+            row += (f"<td>{_fmt(None if base_value is None else float(base_value), digits)}</td>"
+                    f"<td>{_fmt(d, digits)}</td>")
         rows.append(row + "</tr>")
     cycles = ", ".join(f"{a} {doc['axes'][a].get('n_cycles', 0)}" for a in AXES)
     rows.append(f"<tr><td>cycles used</td><td colspan='3'>{html.escape(cycles)}</td></tr>")

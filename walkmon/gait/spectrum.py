@@ -143,7 +143,7 @@ def amplitude_spectrum(
     spec = np.fft.rfft(y * w, n=n_fft)
     amps = 2.0 * np.abs(spec) / w.sum()
     freqs = np.fft.rfftfreq(n_fft, d=1.0 / sample_rate_hz)
-    return freqs, amps
+    return freqs.astype(np.float64, copy=False), amps
 
 
 def refined_peak(

@@ -595,6 +595,8 @@ class LiveFusion:
         t = np.array([x[0] for x in samples])
         g = np.array([x[1] for x in samples])
         a = np.array([x[2] for x in samples])
+        b0_std: float | None
+        tilt: float | None
         if restart:
             # keep what the filter had learnt: the bias, and gravity from the last fused frame carried on by the
             # camera-only frames since (a single accelerometer sample while walking can be degrees off)

@@ -36,7 +36,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -54,6 +54,9 @@ from walkmon.live.frame_queue import FrameQueue, QueueClosed
 from walkmon.live.sdnotify import Notifier
 from walkmon.live.session_log import SessionLog
 from walkmon.live.sinks import AlertSinks
+
+if TYPE_CHECKING:
+    from walkmon.drivers.imu_types import ImuSample, ImuSource
 
 __all__ = [
     "DEFAULT_PIPELINE_SETTINGS",
@@ -80,17 +83,9 @@ class Estimator(Protocol):
 
 def make_estimator(camera: Any, method: str = "fast") -> Estimator:
     """The rotation estimator of ``walkmon analyze`` (``walkmon.rotation.RotationEstimator``) for ``camera``."""
-    try:
-        from walkmon import rotation  # noqa: PLC0415
-    except ImportError as exc:
-        msg = f"the rotation estimator (walkmon.rotation) is not available: {exc}"
-        raise ConfigError(msg) from exc
-    settings_cls = getattr(rotation, "RotationSettings", None)
-    default = getattr(rotation, "DEFAULT_ROTATION_SETTINGS", None)
-    if settings_cls is not None and default is not None and dataclasses.is_dataclass(default):
-        settings = dataclasses.replace(default, method=method)
-        return rotation.RotationEstimator(camera, settings)
-    return rotation.RotationEstimator(camera)
+    from walkmon.rotation import DEFAULT_ROTATION_SETTINGS, RotationEstimator  # noqa: PLC0415
+
+    return RotationEstimator(camera, dataclasses.replace(DEFAULT_ROTATION_SETTINGS, method=method))
 
 
 class LatencyHistogram:
@@ -282,7 +277,7 @@ class LivePipeline:
         alerts: AlertStage,
         session_log: SessionLog,
         sinks: AlertSinks | None = None,
-        imu_source: Any = None,
+        imu_source: ImuSource | None = None,
         fusion: Any = None,
         settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS,
         notifier: Notifier | None = None,
@@ -290,7 +285,7 @@ class LivePipeline:
         on_frame: Callable[[FrameResult], None] | None = None,
     ) -> None:
         self.camera = camera_source
-        self.imu = imu_source
+        self.imu: ImuSource | None = imu_source
         if imu_source is not None and fusion is None:
             from walkmon.imu.fusion import LiveFusion  # noqa: PLC0415
 
@@ -316,7 +311,7 @@ class LivePipeline:
         self._reconnects = 0
         self._reconnecting = False
         self._stalled = False
-        self._imu_buffer: collections.deque[Any] = collections.deque()
+        self._imu_buffer: collections.deque[ImuSample] = collections.deque()
         self._imu_lock = threading.Lock()
         self._imu_max = 20000
         self._imu_overflows = 0
@@ -405,27 +400,23 @@ class LivePipeline:
 
     def _imu_reader_loop(self) -> None:
         try:
+            assert self.imu is not None
             while not self._stop.is_set():
                 try:
-                    sample = self.imu.read()
+                    batch = self.imu.read()
                 except SourceTimeout:
                     continue
                 except SourceDisconnected as exc:
                     _log.warning("IMU: %s; continuing without IMU", exc)
                     return
-                if sample is None:
-                    continue
-                samples = getattr(sample, "samples", None)  # an ImuBatch from the serial driver
-                if samples is None:
-                    samples = (sample,)
-                elif getattr(sample, "overflow", False):
+                if batch.overflow:
                     self._imu_overflows += 1
-                    _log.warning("IMU: %d samples dropped by the driver", getattr(sample, "dropped_samples", 0))
-                if not getattr(self.imu, "live", True):  # read as fast as possible: wait for room, drop nothing
+                    _log.warning("IMU: %d samples dropped by the driver", batch.dropped_samples)
+                if not self.imu.live:  # read as fast as possible: wait for room, drop nothing
                     while not self._stop.is_set() and len(self._imu_buffer) >= self._imu_max:
                         self._stop.wait(0.01)
                 with self._imu_lock:
-                    for smp in samples:
+                    for smp in batch.samples:
                         if len(self._imu_buffer) >= self._imu_max:
                             self._imu_buffer.popleft()
                             self._imu_overflows += 1
@@ -457,7 +448,7 @@ class LivePipeline:
     def _drain_imu(self, until_t_s: float | None = None) -> None:
         """Log the buffered IMU samples and feed them to the fusion; with ``until_t_s`` (an IMU that is not
         live) only those up to that time on the video clock, the rest stay buffered."""
-        live = getattr(self.imu, "live", True)
+        live = self.imu is None or self.imu.live
         with self._imu_lock:
             if until_t_s is not None and math.isfinite(until_t_s) and self.fusion is not None:
                 self._wait_for_imu(until_t_s, live)
@@ -472,14 +463,12 @@ class LivePipeline:
         if samples and self.fusion is not None:
             self._imu_newest_t = float(samples[-1].t_s) + self.fusion.settings.fusion.time_offset_s
         for smp in samples:
-            gyr0 = getattr(smp, "gyroscope_rad_s", None)
+            gyr0, acc = smp.gyroscope_rad_s, smp.accelerometer_m_s2
             gyr = gyr0 or (math.nan, math.nan, math.nan)
-            acc = getattr(smp, "accelerometer_m_s2", None)
-            if acc is not None:
-                self._writer.call(self.log.add_imu, float(smp.t_s), gyr, acc)
-                self._imu_count += 1
-                if self.fusion is not None and until_t_s is not None:
-                    self.fusion.push_imu(float(smp.t_s), gyr0, acc)
+            self._writer.call(self.log.add_imu, float(smp.t_s), gyr, acc)
+            self._imu_count += 1
+            if self.fusion is not None and until_t_s is not None:
+                self.fusion.push_imu(float(smp.t_s), gyr0, acc)
 
     def _wait_for_imu(self, until_t_s: float, live: bool) -> None:
         """With the IMU lock held: wait (bounded) for the IMU reader to deliver past ``until_t_s`` (video clock).

@@ -27,9 +27,10 @@ import math
 import platform
 import sqlite3
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from walkmon.errors import InvalidInputError
 
@@ -197,7 +198,7 @@ class SessionLog:
         kind: str = "live",
         camera: str = "",
         imu: str = "",
-        config: dict[str, object] | None = None,
+        config: Mapping[str, object] | None = None,
         meta: dict[str, object] | None = None,
         flush_interval_s: float = 0.5,
         log_frames: bool = True,
@@ -399,7 +400,7 @@ def record_offline_session(
     camera-only live session.
     """
     t_list, a_list = list(t_s), list(angles_deg)
-    columns = {"extra": None if extra is None else list(extra),
+    columns: dict[str, list[Any] | None] = {"extra": None if extra is None else list(extra),
                "abs": None if abs_angles_deg is None else list(abs_angles_deg),
                "fused": None if fused is None else list(fused)}
     for name, values in columns.items():

@@ -10,6 +10,7 @@ import enum
 import logging
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -185,6 +186,6 @@ def grey_from_frame(frame: NDArray[np.uint8]) -> NDArray[np.uint8]:
     raise InvalidInputError(msg)
 
 
-def make_estimate(t_s: float, rotation: NDArray[np.float64], **kwargs: object) -> RotationEstimate:
+def make_estimate(t_s: float, rotation: NDArray[np.float64], **kwargs: Any) -> RotationEstimate:
     """A :class:`RotationEstimate` with its angles computed from ``rotation``."""
     return RotationEstimate(t_s=float(t_s), rotation=rotation, angles_deg=angles_deg_from_rotation(rotation), **kwargs)

@@ -110,7 +110,7 @@ def render_chessboard_views(
         px = camera.pixels_from_camera_points(pts_cam)
         if np.any(px < 8) or np.any(px[:, 0] > w - 9) or np.any(px[:, 1] > h - 9):
             continue
-        img_val = _shade_board(rays, R, t, board, square_m)
+        img_val = _shade_board(rays, R, t, board, square_m)  # type: ignore[arg-type]  # rays: 3 arrays
         background = 110.0 + 25.0 * np.sin(sub[:, 0] / 37.0) * np.cos(sub[:, 1] / 53.0)
         val = np.where(np.isnan(img_val), background.astype(np.float32), img_val)
         img = val.reshape(supersample * supersample, h, w).mean(axis=0)

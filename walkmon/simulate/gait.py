@@ -276,7 +276,7 @@ class GaitModel:
         # cadence: standing parts borrow the cadence of the nearest walking segment
         walking = [p for p in self.segments if p.walking]
         cad_default = walking[0].cadence_spm if walking else 100.0
-        cad_vals = []
+        cad_vals: Any = []
         last = cad_default
         for p in all_params:
             if p is not None and p.walking:
@@ -349,10 +349,10 @@ class GaitModel:
         speed = blend("speed_mps") * (1.0 + 0.06 * envelope * np.cos(two_pi_phi + ph[0] + 0.8))
         walked_m = np.cumsum(speed) / _GRID_HZ
         walked_m -= walked_m[i0]
-        k = 2.0 * np.pi / rng.uniform(20.0, 60.0, size=3)  # wavenumbers, rad/m
+        wavenumbers = 2.0 * np.pi / rng.uniform(20.0, 60.0, size=3)  # wavenumbers, rad/m
         amps = rng.uniform(0.1, 0.25, size=3) * rng.choice([-1.0, 1.0], size=3)  # metres
-        lateral_m = sum(a * (1.0 - np.cos(kk * walked_m)) for a, kk in zip(amps, k, strict=True))
-        hd = np.arctan(sum(a * kk * np.sin(kk * walked_m) for a, kk in zip(amps, k, strict=True)))
+        lateral_m = sum(a * (1.0 - np.cos(kk * walked_m)) for a, kk in zip(amps, wavenumbers, strict=True))
+        hd = np.arctan(sum(a * kk * np.sin(kk * walked_m) for a, kk in zip(amps, wavenumbers, strict=True)))
         heading_deg = np.degrees(hd)
 
         pitch_off = blend("pitch_offset_deg")

@@ -174,7 +174,7 @@ class _MipAtlas:
             mv += self.offset_y[lk]
             vals = _remap_points(self.image, mu, mv)
             acc = vals if acc is None else acc + (vals - acc) * frac
-        return acc
+        return acc  # type: ignore[return-value]
 
 
 def _remap_points(img: NDArray[np.uint8], mu: NDArray[np.float32], mv: NDArray[np.float32]) -> NDArray[np.float32]:
@@ -229,8 +229,8 @@ class Renderer:
         self._lod = (np.log2(np.sqrt(dx * dy)) + settings.lod_bias).ravel().astype(np.float32)
         # vignetting from the ray angle (cos^4-like falloff, scaled)
         cos_t = rays[:, 2].reshape(h, w)
-        self._vignette = (1.0 - settings.vignetting * (1.0 - cos_t**4) / max(1e-6, 1.0 - float(cos_t.min()) ** 4))
-        self._vignette = self._vignette.astype(np.float32)[..., None]
+        vignette = (1.0 - settings.vignetting * (1.0 - cos_t**4) / max(1e-6, 1.0 - float(cos_t.min()) ** 4))
+        self._vignette = vignette.astype(np.float32)[..., None]
         gx, gy = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
         self._grid = (gx, gy)
         self._noise_bank: list[NDArray[np.float32]] | None = None
@@ -334,7 +334,7 @@ class Renderer:
             img, dist, D = self._shade(R[1], P[1])
             origin: tuple[Any, ...] = (np.float32(0.0),) * 3
         else:
-            img, dist, D, origin = self._shade_bands(band_rotations, band_positions_m, P[1])
+            img, dist, D, origin = self._shade_bands(band_rotations, band_positions_m, P[1])  # type: ignore[arg-type]
         if n_taps <= 1:
             return img
         d = np.where(np.isfinite(dist), dist, np.float32(1e4))
@@ -407,7 +407,7 @@ class Renderer:
                 continue
             s = dist[idx]
             inv = np.float32(1.0 / tex.texel_m)
-            rows = np.float32(tex.levels[0].shape[0])
+            tex_rows = np.float32(tex.levels[0].shape[0])
             if lab == 0:
                 cols_m = tex.levels[0].shape[1] * tex.texel_m
                 u = (np.float32((px - sc.left_wall_x_m) % cols_m) + s * dxs[idx]) * inv
@@ -415,11 +415,11 @@ class Renderer:
                 cos_i = np.abs(dys[idx])
             elif lab in (1, 2):
                 u = (np.float32(pz % period) + s * dzs[idx]) * inv
-                v = rows - (np.float32(H - py) - s * dys[idx]) * inv
+                v = tex_rows - (np.float32(H - py) - s * dys[idx]) * inv
                 cos_i = np.abs(dxs[idx])
             else:
                 u = (np.float32(px - sc.far_edges_x_m[0]) + s * dxs[idx]) * inv
-                v = rows - (np.float32(H - py) - s * dys[idx]) * inv
+                v = tex_rows - (np.float32(H - py) - s * dys[idx]) * inv
                 cos_i = np.abs(dzs[idx])
             # footprint: distance / pixel size, stretched by the incidence: log2(s / sqrt(cos)) = 0.5 log2(s² / cos)
             level = lod[idx] + np.float32(0.5) * np.log2((s * inv) ** 2 / np.maximum(cos_i, np.float32(0.02)))
@@ -439,7 +439,7 @@ class Renderer:
         st = self.settings
         if st.defocus_sigma_px > 0:
             img = cv2.GaussianBlur(img, (0, 0), st.defocus_sigma_px)
-        img = img * self._vignette
+        img = img * self._vignette  # type: ignore[assignment]  # float32 * float32
         if st.read_noise_dn > 0 or st.shot_noise_gain > 0:
             sigma = np.sqrt(np.float32(st.read_noise_dn**2) + np.float32(st.shot_noise_gain) * np.maximum(img, 0.0))
             img += self._noise(rng) * sigma
