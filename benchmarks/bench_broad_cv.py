@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     grid = QUICK_GRID if args.quick else GRID
     trials = [load_broad(pth, 60.0 if args.quick else None) for pth in paths]
     keys = list(grid)
-    points = [dict(zip(keys, values)) for values in itertools.product(*(grid[k] for k in keys))]
+    points = [dict(zip(keys, values, strict=True)) for values in itertools.product(*(grid[k] for k in keys))]
     base = replace(HANDHELD_ATTITUDE_SETTINGS)
     t0 = time.perf_counter()
     scores = np.empty((len(points), len(trials)))

@@ -72,9 +72,9 @@ def simulated(walk: str, seconds: float, seed: int, cache: Path) -> Path:
 def vision(d: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Frame times, start-relative rotations and 'measured' flags from the fast rotation estimator."""
     import cv2  # noqa: PLC0415
-    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
 
     from walkmon.camera.model import read_camera_yaml  # noqa: PLC0415
+    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
 
     cv2.setNumThreads(1)
@@ -347,10 +347,10 @@ def tables(walk_rows: list[dict], broad_rows: list[dict]) -> str:
         ]
         for i, g in enumerate(WEIGHT_GRID):
             rs = [np.array(r["weight_sweep"][i]["rmse_deg"]) for r in walk_rows]
-            below_imu = sum(int(np.sum(x < np.array(r["rmse_deg"]["imu_eskf"]))) for x, r in zip(rs, walk_rows))
-            below_vis = sum(int(np.sum(x < np.array(r["rmse_deg"]["vision"]))) for x, r in zip(rs, walk_rows))
+            below_imu = sum(int(np.sum(x < np.array(r["rmse_deg"]["imu_eskf"]))) for x, r in zip(rs, walk_rows, strict=True))
+            below_vis = sum(int(np.sum(x < np.array(r["rmse_deg"]["vision"]))) for x, r in zip(rs, walk_rows, strict=True))
             below_both = sum(int(np.sum((x < np.array(r["rmse_deg"]["imu_eskf"])) & (x < np.array(r["rmse_deg"]["vision"]))))
-                             for x, r in zip(rs, walk_rows))
+                             for x, r in zip(rs, walk_rows, strict=True))
             lines.append(f"| {g['visual_std_deg']:g} | {g['visual_drift_std_deg_s']:g} | {g['visual_scale_std']:g} | "
                          f"{below_imu} | {below_vis} | {below_both} | {fmt(list(np.mean(rs, axis=0)))} |")
     lines += [

@@ -46,10 +46,9 @@ def rss_mb() -> float:
 
 
 def make_pipeline(url: str, calib: Path, data_dir: Path, on_hop=None, on_frame=None):  # noqa: ANN001, ANN201
-    from walkmon.drivers.sources import open_camera
-
     from walkmon.camera.model import read_camera_yaml
     from walkmon.commands.live import CameraAwareEstimator
+    from walkmon.drivers.sources import open_camera
     from walkmon.gait.live import LiveIndicatorStage
     from walkmon.live.alerts import AlertStage
     from walkmon.live.pipeline import LivePipeline

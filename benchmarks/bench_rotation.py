@@ -33,10 +33,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from walkmon.drivers.video_file import VideoFile
 
 from walkmon.camera.model import read_camera_yaml
 from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
+from walkmon.drivers.video_file import VideoFile
 from walkmon.rotation import (
     DEFAULT_ROTATION_SETTINGS,
     RotationEstimator,
@@ -309,7 +309,7 @@ def main(argv: list[str] | None = None) -> int:
         "python": platform.python_version(),
         "opencv": cv2.__version__,
         "threads": "cv2.setNumThreads(1), FFmpeg decode_threads=1",
-        "video": "640x480 30 fps mp4 from walkmon.simulate (noise, motion blur, compression), seed %d" % args.seed,
+        "video": f"640x480 30 fps mp4 from walkmon.simulate (noise, motion blur, compression), seed {args.seed}",
         "targets_fast": TARGETS,
         "paper_seconds": paper_s,
         "settings": dataclasses.asdict(DEFAULT_ROTATION_SETTINGS),

@@ -30,7 +30,6 @@ from typing import Any
 
 from walkmon.drivers.camera_base import CameraSource, Frame
 from walkmon.drivers.imu_types import ImuBatch, ImuSample
-
 from walkmon.errors import SourceDisconnected, SourceError, SourceTimeout
 
 __all__ = ["DepthaiCamera", "DepthaiImu", "import_depthai"]

@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 from walkmon.drivers.camera_base import CameraSource, Frame
-
 from walkmon.errors import InvalidInputError, SourceDisconnected, SourceError
 
 __all__ = ["FileCamera"]

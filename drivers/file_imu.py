@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import time
-
 from typing import Any
 
-from walkmon.drivers.imu_types import ImuBatch, ImuSample
-
 from walkmon.consts import IMU_COLUMNS
+from walkmon.drivers.imu_types import ImuBatch, ImuSample
 from walkmon.errors import SourceDisconnected, SourceError
 
 __all__ = ["FileImu"]

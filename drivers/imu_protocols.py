@@ -35,9 +35,8 @@ import struct
 from dataclasses import dataclass, replace
 from typing import Protocol
 
-from walkmon.drivers.imu_types import ImuSample, ParserStats
-
 from walkmon.consts import GRAVITY_MS2
+from walkmon.drivers.imu_types import ImuSample, ParserStats
 from walkmon.errors import ConfigError
 
 __all__ = [

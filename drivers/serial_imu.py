@@ -35,7 +35,6 @@ from walkmon.drivers.imu_protocols import (
     parser_for_protocol,
 )
 from walkmon.drivers.imu_types import ImuBatch, ImuSample, ParserStats
-
 from walkmon.errors import ConfigError, SourceDisconnected, SourceError
 
 __all__ = [

@@ -15,9 +15,8 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-from walkmon.drivers.camera_base import CameraSource, Frame
-
 from walkmon.camera.model import CameraModel
+from walkmon.drivers.camera_base import CameraSource, Frame
 from walkmon.errors import ConfigError, SourceDisconnected, SourceError
 
 __all__ = ["SimCamera", "script_seconds"]

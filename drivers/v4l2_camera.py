@@ -11,7 +11,6 @@ import logging
 import time
 
 from walkmon.drivers.camera_base import CameraSource, Frame
-
 from walkmon.errors import SourceDisconnected, SourceError
 
 __all__ = ["V4l2Camera"]

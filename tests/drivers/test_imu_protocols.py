@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+
+from walkmon.consts import GRAVITY_MS2
 from walkmon.drivers.imu_protocols import (
     Bno08xRvcParser,
     CsvLineParser,
@@ -16,8 +18,6 @@ from walkmon.drivers.imu_protocols import (
     parser_for_protocol,
     witmotion_packet,
 )
-
-from walkmon.consts import GRAVITY_MS2
 from walkmon.errors import ConfigError
 
 G = GRAVITY_MS2

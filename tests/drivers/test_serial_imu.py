@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 import pytest
+
 from walkmon.drivers.imu_protocols import bno08x_rvc_frame, witmotion_packet
 from walkmon.drivers.serial_imu import (
     SerialImu,
@@ -17,7 +18,6 @@ from walkmon.drivers.serial_imu import (
     reconnect_delays_s,
     settings_from_url,
 )
-
 from walkmon.errors import ConfigError, SourceDisconnected, SourceError
 
 pty = pytest.importorskip("pty")

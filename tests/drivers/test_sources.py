@@ -9,8 +9,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from walkmon.drivers.sources import open_camera, open_imu
 
+from walkmon.drivers.sources import open_camera, open_imu
 from walkmon.errors import ConfigError, SourceDisconnected, SourceError
 
 

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
-from walkmon.drivers.camera_base import CameraSource, Frame
 
+from walkmon.drivers.camera_base import CameraSource, Frame
 from walkmon.errors import SourceDisconnected, SourceError
 from walkmon.simulate.gait import GaitModel
 

@@ -51,9 +51,8 @@ def test_bend_alert_in_time_and_cleared_none_while_standing(live_session: tuple[
 
 
 def test_live_angles_equal_offline_estimator_angles(live_session: tuple[Path, int], bend_clip) -> None:  # noqa: ANN001
-    from walkmon.drivers.video_file import VideoFile
-
     from walkmon.camera.model import read_camera_yaml
+    from walkmon.drivers.video_file import VideoFile
     from walkmon.rotation import RotationEstimator
 
     est = RotationEstimator(read_camera_yaml(bend_clip.camera_path))

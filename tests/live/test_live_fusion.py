@@ -197,7 +197,6 @@ def test_extrinsics_rotate_imu_axes_into_the_camera_frame() -> None:
 
 def test_pipeline_keeps_running_when_the_imu_disconnects(tmp_path: Path, GaitSource, TruthEstimator) -> None:
     from walkmon.drivers.imu_types import ImuBatch, ImuSample
-
     from walkmon.gait.live import LiveIndicatorStage
     from walkmon.live.alerts import AlertStage
     from walkmon.live.pipeline import LivePipeline

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from walkmon.drivers.camera_base import CameraSource
 
+from walkmon.drivers.camera_base import CameraSource
 from walkmon.gait.live import LiveIndicatorStage
 from walkmon.live.alerts import AlertSettings, AlertStage
 from walkmon.live.pipeline import LivePipeline

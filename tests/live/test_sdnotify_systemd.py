@@ -142,7 +142,6 @@ def test_pipeline_sends_ready_after_first_frame_and_watchdog_from_its_loop(tmp_p
 def test_a_hung_camera_stops_the_watchdog_pings(tmp_path: Path, caplog: pytest.LogCaptureFixture, GaitSource, TruthEstimator) -> None:
     """The grabber stuck inside a driver call: the loop keeps running but stops WATCHDOG=1 (systemd restarts)."""
     from walkmon.drivers.camera_base import Frame  # noqa: PLC0415
-
     from walkmon.live.config import PipelineSettings  # noqa: PLC0415
     from walkmon.simulate.gait import GaitModel  # noqa: PLC0415
 

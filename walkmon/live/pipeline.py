@@ -41,7 +41,6 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 from walkmon.errors import (
-    ConfigError,
     SourceDisconnected,
     SourceError,
     SourceTimeout,

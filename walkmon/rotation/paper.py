@@ -121,7 +121,6 @@ class PaperEngine:
         return np.array([k.pt for k in kps], np.float32), desc
 
     def push(self, grey: NDArray[np.uint8], t_s: float) -> RotationEstimate:
-        s = self.s
         if float(grey.std()) < _UNIFORM_STD:
             self.started = True
             return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES)
