@@ -146,8 +146,9 @@ class Analysis:
         imu.json when an IMU was used, indicators.json, report.html. Returns ``{file name: path}``."""
         from walkmon.tables import write_indicators, write_table  # noqa: PLC0415
 
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
+        from walkmon.safe_io import json_text, prepare_dir, write_text  # noqa: PLC0415
+
+        out = prepare_dir(Path(out_dir))  # 0700; a symlinked folder is refused (every file: walkmon.safe_io)
         written: dict[str, Path] = {}
         if angles:
             written["angles.csv"] = out / "angles.csv"
@@ -155,12 +156,12 @@ class Analysis:
                         precision=self.precision)
             if self.imu_info is not None:
                 written["imu.json"] = out / "imu.json"
-                written["imu.json"].write_text(json.dumps(dict(self.imu_info), indent=1), encoding="utf-8")
+                write_text(written["imu.json"], json_text(dict(self.imu_info)))  # NaN -> null: valid JSON
         written["indicators.json"] = out / "indicators.json"
         write_indicators(written["indicators.json"], self.gait)
         written["report.html"] = out / "report.html"
         text = self.report_html()
-        written["report.html"].write_text(text, encoding="utf-8")
+        write_text(written["report.html"], text)
         _log.info("wrote %s (%d kB)", written["report.html"], len(text) // 1024)
         return written
 
@@ -529,7 +530,7 @@ def load_session(session_id: int, data_dir: str | Path | None = None) -> Session
     )
 
     folder = Path(data_dir).expanduser() if data_dir is not None else default_data_dir()
-    conn = open_database(folder, create=False)
+    conn = open_database(folder, read_only=True)  # reading never writes (a read-only file works too)
     try:
         record = session_record(conn, int(session_id))
         tables = {}

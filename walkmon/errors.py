@@ -12,6 +12,7 @@ __all__ = [
     "SourceDisconnected",
     "SourceError",
     "SourceTimeout",
+    "UnsafePathError",
     "WalkmonError",
 ]
 
@@ -26,6 +27,10 @@ class ConfigError(WalkmonError, ValueError):
 
 class InvalidInputError(WalkmonError, ValueError):
     """An input file or array is malformed (wrong columns, non-numeric values, wrong shape)."""
+
+
+class UnsafePathError(InvalidInputError):
+    """An output path is a symbolic link (or otherwise unsafe to write through); nothing was written."""
 
 
 class SourceError(WalkmonError, OSError):

@@ -10,8 +10,10 @@ that names the file (and the row, where there is one).
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -19,7 +21,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from walkmon.consts import IMU_COLUMNS
 from walkmon.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -30,26 +31,45 @@ __all__ = ["read_imu_csv", "read_indicators", "read_table", "write_indicators", 
 
 
 def read_table(
-    path: str | Path, required: Sequence[str], *, optional_numeric: bool = True
+    path: str | Path,
+    required: Sequence[str],
+    *,
+    optional_numeric: bool = True,
+    skip_bad_rows: bool = False,
+    rejected: Counter[str] | None = None,
+    max_bytes: int | None = None,
 ) -> dict[str, NDArray[np.float64]]:
     """Read a CSV table into ``{column: float array}``.
 
     ``required`` columns must be present; other numeric columns are returned as well, and non-numeric extra
     columns are skipped when ``optional_numeric`` is True (e.g. a ``model`` text column in angles.csv).
+
+    At most ``max_bytes`` (default :data:`walkmon.safe_io.MAX_TABLE_BYTES`) are read: ``/dev/zero`` or a huge
+    file ends in one error line. With ``skip_bad_rows`` (streams of samples without checksums, e.g. imu.csv),
+    a row with the wrong number of values or a non-numeric / non-finite required value is skipped and counted
+    in ``rejected`` (reasons ``malformed``, ``non_finite``) instead of failing the file, and ``t`` is not checked
+    for order (the caller's plausibility check does it).
     """
+    from walkmon.safe_io import MAX_TABLE_BYTES, read_bounded  # noqa: PLC0415
+
     p = Path(path)
+    data = read_bounded(p, MAX_TABLE_BYTES if max_bytes is None else max_bytes, "CSV table")
     try:
-        with p.open(newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(fh))
-    except FileNotFoundError:
-        msg = f"{p}: no such file"
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        msg = f"{p}: cannot read as CSV (not UTF-8 text)"
         raise InvalidInputError(msg) from None
-    except IsADirectoryError:
-        msg = f"{p}: is a directory, expected a CSV file"
-        raise InvalidInputError(msg) from None
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+    del data
+    if "\0" in text:
+        msg = f"{p}: cannot read as CSV (contains NUL bytes)"
+        raise InvalidInputError(msg)
+    try:
+        rows = list(csv.reader(io.StringIO(text, newline="")))
+    except csv.Error as exc:
         msg = f"{p}: cannot read as CSV ({exc})"
         raise InvalidInputError(msg) from None
+    del text
+    counts: Counter[str] = Counter() if rejected is None else rejected
     rows = [r for r in rows if r and any(c.strip() for c in r)]
     if not rows:
         msg = f"{p}: empty file, expected a header with columns {','.join(required)}"
@@ -65,27 +85,44 @@ def read_table(
         raise InvalidInputError(msg)
     columns: dict[str, list[float]] = {name: [] for name in header}
     skipped: set[str] = set()
+    required_set = set(required)
     for line_no, row in enumerate(body, start=2):
         if len(row) != len(header):
+            if skip_bad_rows:
+                counts["malformed"] += 1
+                continue
             msg = f"{p}: line {line_no} has {len(row)} values, the header has {len(header)}"
             raise InvalidInputError(msg)
+        values: list[tuple[str, float]] = []
+        bad = ""
         for name, cell in zip(header, row, strict=True):
             if name in skipped:
                 continue
             try:
                 value = float(cell)
             except ValueError:
-                if name in required or not optional_numeric:
+                if name in required_set or not optional_numeric:
+                    if skip_bad_rows:
+                        bad = "malformed"
+                        break
                     msg = f"{p}: line {line_no}, column {name}: {cell!r} is not a number"
                     raise InvalidInputError(msg) from None
-                skipped.add(name)
+                skipped.add(name)  # a text column: not returned
                 continue
-            if not math.isfinite(value) and name in required:
+            if not math.isfinite(value) and name in required_set:
+                if skip_bad_rows:
+                    bad = "non_finite"
+                    break
                 msg = f"{p}: line {line_no}, column {name}: {cell!r} is not a finite number"
                 raise InvalidInputError(msg)
+            values.append((name, value))
+        if bad:
+            counts[bad] += 1
+            continue
+        for name, value in values:
             columns[name].append(value)
     out = {name: np.asarray(vals, dtype=float) for name, vals in columns.items() if name not in skipped}
-    if "t" in out and np.any(np.diff(out["t"]) < 0):
+    if not skip_bad_rows and "t" in out and np.any(np.diff(out["t"]) < 0):
         bad = int(np.argmax(np.diff(out["t"]) < 0)) + 3
         msg = f"{p}: column t decreases at line {bad}"
         raise InvalidInputError(msg)
@@ -99,7 +136,10 @@ def write_table(
     precision: Mapping[str, int] | None = None,
     default_precision: int = 6,
 ) -> None:
-    """Write ``{column: values}`` as CSV; numbers get ``precision[column]`` decimals (default 6)."""
+    """Write ``{column: values}`` as CSV; numbers get ``precision[column]`` decimals (default 6).
+
+    Written safely (:func:`walkmon.safe_io.atomic_write`): a symlinked target is refused, the file is 0600.
+    """
     names = list(columns)
     cols = [np.asarray(columns[n]) for n in names]
     lengths = {len(c) for c in cols}
@@ -114,53 +154,51 @@ def write_table(
             formatted.append([f"{v:.{digits}f}" for v in col.astype(float)])
         else:
             formatted.append([str(v) for v in col])
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    with Path(path).open("w", newline="", encoding="utf-8") as fh:
+    from walkmon.safe_io import atomic_write  # noqa: PLC0415
+
+    with atomic_write(path, "w", newline="", encoding="utf-8") as fh:  # temp file + rename, never via a link
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(names)
         writer.writerows(zip(*formatted, strict=True))
 
 
 def read_imu_csv(path: str | Path) -> ImuRecording:
-    """Read imu.csv (``t,gx,gy,gz,ax,ay,az``); malformed files raise InvalidInputError with one line."""
+    """Read imu.csv (``t,gx,gy,gz,ax,ay,az``); malformed files raise InvalidInputError with one line.
+
+    Rows that cannot be real (malformed, non-finite, beyond a MEMS sensor's range, no gravity, time going back)
+    are skipped and counted by :func:`walkmon.drivers.file_imu.read_imu_file` (CSV lines carry no checksum); a
+    file with fewer than 10 plausible rows is refused."""
+    from walkmon.drivers.file_imu import read_imu_file  # noqa: PLC0415
     from walkmon.imu.recordings import ImuRecording  # noqa: PLC0415  (the IMU package does no I/O)
 
-    cols = read_table(path, IMU_COLUMNS)
-    t = cols["t"]
-    if len(t) < 10:
-        msg = f"{path}: only {len(t)} IMU samples; need at least 10"
-        raise InvalidInputError(msg)
-    if np.any(np.diff(t) <= 0):
-        msg = f"{path}: IMU timestamps must strictly increase"
-        raise InvalidInputError(msg)
-    gyro = np.column_stack([cols["gx"], cols["gy"], cols["gz"]])
-    accel = np.column_stack([cols["ax"], cols["ay"], cols["az"]])
-    return ImuRecording(t, gyro, accel)
+    f = read_imu_file(path, min_rows=10)
+    return ImuRecording(f.t_s, f.gyroscope_rad_s, f.accelerometer_m_s2)
 
 
 def write_indicators(path: str | Path, indicators: Indicators) -> None:
-    """Write indicators.json (UTF-8, indented, keys in schema order, NaN as null)."""
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(json.dumps(indicators.to_dict(), indent=2, allow_nan=False) + "\n", encoding="utf-8")
+    """Write indicators.json (UTF-8, indented, keys in schema order, NaN as null); safely
+    (:func:`walkmon.safe_io.write_text`: temp file + rename, a symlinked target refused, 0600)."""
+    from walkmon.safe_io import write_text  # noqa: PLC0415
+
+    write_text(path, json.dumps(indicators.to_dict(), indent=2, allow_nan=False) + "\n")
 
 
 def read_indicators(path: str | Path) -> Indicators:
-    """Read an indicators.json; a missing, unreadable or malformed file raises InvalidInputError (one line)."""
+    """Read an indicators.json; a missing, unreadable, oversized (> 4 MiB) or malformed file raises
+    InvalidInputError (one line)."""
+    from walkmon.safe_io import MAX_TEXT_INPUT_BYTES, read_bounded  # noqa: PLC0415
+
     p = Path(path)
     try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        msg = f"{p}: no such file"
-        raise InvalidInputError(msg) from None
-    except IsADirectoryError:
-        msg = f"{p}: is a directory, expected indicators.json"
-        raise InvalidInputError(msg) from None
-    except (OSError, UnicodeDecodeError) as exc:
+        doc = json.loads(read_bounded(p, MAX_TEXT_INPUT_BYTES, "indicators.json").decode("utf-8"))
+    except UnicodeDecodeError as exc:
         msg = f"{p}: cannot read ({exc})"
         raise InvalidInputError(msg) from None
     except json.JSONDecodeError as exc:
         msg = f"{p}: not valid JSON ({exc.msg} at line {exc.lineno})"
+        raise InvalidInputError(msg) from None
+    except RecursionError:
+        msg = f"{p}: nested too deeply to be an indicators.json"
         raise InvalidInputError(msg) from None
     from walkmon.gait.indicators import indicators_from_dict  # noqa: PLC0415  (gait does no I/O)
 

@@ -241,4 +241,6 @@ def write_camera_yaml(camera: CameraModel, path: str | Path) -> None:
     """Write ``camera`` as a ROS camera_info YAML file."""
     import yaml  # noqa: PLC0415
 
-    Path(path).write_text(yaml.safe_dump(camera.to_dict(), sort_keys=False), encoding="utf-8")
+    from walkmon.safe_io import write_text  # noqa: PLC0415
+
+    write_text(path, yaml.safe_dump(camera.to_dict(), sort_keys=False))

@@ -62,6 +62,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    from walkmon.commands import _signals  # noqa: PLC0415
+
+    _signals.install()  # first: a signal during the imports below must not print a traceback (or kill 'live')
+    try:
+        return _main(argv)
+    except (_signals.Interrupted, KeyboardInterrupt) as exc:
+        signum = getattr(exc, "signum", 2)
+        sys.stderr.write(f"walkmon: interrupted ({_signals.signal_name(signum)})\n")
+        return 128 + signum
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    import sqlite3  # noqa: PLC0415
+
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(
@@ -81,9 +95,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"walkmon {args.command}: error: {exc.filename or exc}: permission denied\n")
     except OSError as exc:
         sys.stderr.write(f"walkmon {args.command}: error: {exc}\n")
-    except KeyboardInterrupt:
-        sys.stderr.write(f"walkmon {args.command}: interrupted\n")
-        return 130
+    except sqlite3.Error as exc:
+        sys.stderr.write(f"walkmon {args.command}: error: session database: {exc}\n")
+    except (RecursionError, MemoryError) as exc:
+        sys.stderr.write(f"walkmon {args.command}: error: input too deeply nested or too large ({type(exc).__name__})\n")
     return EXIT_USAGE
 
 

@@ -3,16 +3,15 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import logging
 import math
-import signal
 import sys
-from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, TextIO
 
+from walkmon.commands import _signals
+from walkmon.commands.sessions import printable
 from walkmon.errors import WalkmonError
 
 NAME = "live"
@@ -87,32 +86,6 @@ class _Status:
         if self.mode == "line" and self.width:
             self.stream.write("\n")
             self.stream.flush()
-
-
-@contextlib.contextmanager
-def _signals(pipeline: Any) -> Iterator[None]:
-    """SIGINT/SIGTERM finish the session cleanly; SIGUSR1 re-takes the upright calibration."""
-    previous: dict[int, Any] = {}
-
-    def on_stop(signum: int, _frame: object) -> None:
-        pipeline.stop(f"signal {signal.Signals(signum).name}")
-
-    def on_usr1(_signum: int, _frame: object) -> None:
-        pipeline.request_calibration()
-
-    handlers: dict[int, Callable[[int, object], None]] = {signal.SIGINT: on_stop, signal.SIGTERM: on_stop}
-    if hasattr(signal, "SIGUSR1"):
-        handlers[signal.SIGUSR1] = on_usr1
-    try:
-        for sig, fn in handlers.items():
-            previous[sig] = signal.signal(sig, fn)
-    except ValueError:  # not in the main thread (e.g. called from a test thread): no signal handling
-        previous.clear()
-    try:
-        yield
-    finally:
-        for sig, fn in previous.items():
-            signal.signal(sig, fn)
 
 
 class CameraAwareEstimator:
@@ -215,36 +188,54 @@ def _run(args: argparse.Namespace) -> int:
     data_dir = Path(cfg.session.data_dir).expanduser() if cfg.session.data_dir else default_data_dir()
     stream = sys.stderr
     status = _Status(args.status, stream)
-    log = SessionLog(data_dir, kind="live", camera=cfg.camera.url, imu=cfg.imu.url or (imu.url if imu else ""), config=config_to_dict(cfg),
-                     flush_interval_s=cfg.session.flush_interval_s, log_frames=cfg.session.log_frames)
-    if cfg.session.retention_days > 0:
-        _prune_old_sessions(log.path, cfg.session.retention_days)
-    pipeline = LivePipeline(
-        camera,
-        lambda src: CameraAwareEstimator(src, calib, cfg.rotation.method, cfg.camera.hfov_deg),
-        indicators=LiveIndicatorStage(cfg.indicators),
-        alerts=AlertStage(cfg.alerts),
-        session_log=log,
-        sinks=AlertSinks(cfg.sinks, stream=stream if cfg.sinks.terminal else None),
-        imu_source=imu,
-        fusion=fusion,
-        settings=cfg.pipeline,
-        notifier=Notifier(),
-        on_hop=status,
-    )
-    _log.info("session %d: %s -> %s", log.session_id, cfg.camera.url, log.path)
-    try:
-        with _signals(pipeline):
-            res = pipeline.run(args.duration)
-    finally:
-        status.end()
+    indicators = LiveIndicatorStage(cfg.indicators)
+    alerts = AlertStage(cfg.alerts)
+    # From here to the end a signal never raises: SIGINT/SIGTERM stop the pipeline (which closes the session),
+    # SIGUSR1 asks for a calibration; what arrives before the pipeline exists is held and passed on.
+    with _signals.deliver_to(_signals.PendingStop()) as pending:
+        log = SessionLog(data_dir, kind="live", camera=cfg.camera.url, imu=cfg.imu.url or (imu.url if imu else ""),
+                         config=config_to_dict(cfg), flush_interval_s=cfg.session.flush_interval_s,
+                         log_frames=cfg.session.log_frames)
+        sinks = None
+        try:
+            sinks = AlertSinks(cfg.sinks, stream=stream if cfg.sinks.terminal else None)
+            pipeline = LivePipeline(
+                camera,
+                lambda src: CameraAwareEstimator(src, calib, cfg.rotation.method, cfg.camera.hfov_deg),
+                indicators=indicators,
+                alerts=alerts,
+                session_log=log,
+                sinks=sinks,
+                imu_source=imu,
+                fusion=fusion,
+                settings=cfg.pipeline,
+                notifier=Notifier(),
+                on_hop=status,
+            )
+            pending.forward_to(pipeline)
+            if cfg.session.retention_days > 0:
+                _prune_old_sessions(log.path, cfg.session.retention_days)
+            _log.info("session %d: %s -> %s", log.session_id, printable(cfg.camera.url), log.path)
+            res = pipeline.run(args.duration)  # closes the session (or discards it when the start failed)
+        except BaseException as exc:
+            if not log.closed:  # failed before the pipeline ran: nothing recorded
+                log.discard(f"start failed: {exc!r}")
+                if sinks is not None:
+                    sinks.close()
+            raise
+        finally:
+            status.end()
     sys.stdout.write(
         f"session {res.session_id}: {res.duration_s:.1f} s, {res.frames} frames, {res.dropped} dropped, "
         f"{res.hops} hops, {res.alerts_raised} alerts, latency p99 {res.latency_p99_ms:.0f} ms "
-        f"({res.end_reason}) -> {log.path}\n")
+        f"({printable(res.end_reason)}) -> {log.path}\n")
     if res.fusion is not None:
         cam = res.fusion["frames_camera_only"]
+        rejected = res.fusion.get("imu_rejected") or {}
         sys.stdout.write(f"IMU fusion: {res.fusion['frames_fused']} frames fused, camera-only: {cam['no_imu']} before "
                          f"any IMU sample, {cam['warmup']} in the IMU warm-up, {cam['imu_gap']} in IMU gaps; "
                          f"{res.fusion['filter_restarts']} filter restarts, {res.imu_samples} IMU samples\n")
+        if rejected:
+            sys.stdout.write(f"IMU: {sum(rejected.values())} samples rejected as implausible ("
+                             f"{', '.join(f'{k} {v}' for k, v in sorted(rejected.items()))}): not fused\n")
     return 0

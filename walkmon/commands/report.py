@@ -6,12 +6,14 @@ import argparse
 import sys
 from pathlib import Path
 
+from walkmon.commands.sessions import session_id_arg
+
 NAME = "report"
 HELP = "write indicators.json and report.html for a logged session (same report as 'walkmon analyze')"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("session_id", type=int, metavar="ID", help="session id (see 'walkmon sessions list')")
+    p.add_argument("session_id", type=session_id_arg, metavar="ID", help="session id (see 'walkmon sessions list')")
     p.add_argument("--out", metavar="DIR", help="output folder (default: ./session-ID)")
     p.add_argument("--baseline", metavar="JSON", help="indicators.json of the same person's normal walk")
     p.add_argument("--data-dir", metavar="DIR", help="session database folder (default ~/.local/share/walkmon)")

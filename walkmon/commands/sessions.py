@@ -21,6 +21,28 @@ _RENAME = {"t_s": "t"}
 _TEXT_COLUMNS = {"model", "status", "label", "json", "kind", "state", "message", "reason"}
 
 
+def session_id_arg(text: str) -> int:
+    """argparse type of a session id: an integer 1 .. 2^63-1 (SQLite's integer range)."""
+    try:
+        value = int(text)
+    except ValueError:
+        msg = f"session id must be a whole number, got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+    if not 1 <= value <= 2**63 - 1:
+        msg = f"session id must be in 1 .. 2^63-1, got {text}"
+        raise argparse.ArgumentTypeError(msg)
+    return value
+
+
+_CONTROL = {c: f"\\x{c:02x}" for c in (*range(0x20), 0x7F, *range(0x80, 0xA0))}
+
+
+def printable(text: object) -> str:
+    """``text`` with control characters (terminal escape sequences, newlines) shown as ``\\xNN``: a stored
+    string (a source URL, an end reason) never drives the terminal."""
+    return str(text).translate(_CONTROL)
+
+
 def _data_dir_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data-dir", metavar="DIR", help="session database folder (default ~/.local/share/walkmon)")
 
@@ -31,12 +53,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     lp = sub.add_parser("list", help="one line per session")
     _data_dir_arg(lp)
     ep = sub.add_parser("export", help="write a session's tables to a folder")
-    ep.add_argument("session_id", type=int, metavar="ID")
+    ep.add_argument("session_id", type=session_id_arg, metavar="ID")
     ep.add_argument("--format", choices=("csv", "parquet"), default="csv")
     ep.add_argument("--out", required=True, metavar="DIR")
     _data_dir_arg(ep)
     dp = sub.add_parser("delete", help="delete sessions and all their rows, then shrink the file")
-    dp.add_argument("session_ids", type=int, nargs="+", metavar="ID")
+    dp.add_argument("session_ids", type=session_id_arg, nargs="+", metavar="ID")
     dp.add_argument("--force", action="store_true",
                     help="also delete sessions without an end time (cut off, e.g. by a power loss); by default "
                          "they are refused, as a running 'walkmon live' may still be writing into them")
@@ -63,9 +85,10 @@ def _list(args: argparse.Namespace) -> int:
     out.write(f"{'id':>4}  {'kind':<7} {'started (UTC)':<23} {'duration':>9} {'frames':>7} {'dropped':>7} "
               f"{'hops':>5} {'alerts':>6}  {'end':<24} source\n")
     for s in sessions:
-        end = (s.end_reason or "") if s.ended_utc else "(running or cut off)"
-        out.write(f"{s.id:>4}  {s.kind:<7} {s.started_utc[:23]:<23} {s.duration_s:>8.1f}s {s.n_frames:>7} "
-                  f"{s.n_dropped:>7} {s.n_hops:>5} {s.n_alerts:>6}  {end[:24]:<24} {s.camera}\n")
+        end = printable(s.end_reason) if s.ended_utc else "(running or cut off)"
+        out.write(f"{s.id:>4}  {printable(s.kind):<7} {printable(s.started_utc)[:23]:<23} {s.duration_s:>8.1f}s "
+                  f"{s.n_frames:>7} {s.n_dropped:>7} {s.n_hops:>5} {s.n_alerts:>6}  {end[:24]:<24} "
+                  f"{printable(s.camera)}\n")
     if not sessions:
         out.write("(no sessions yet)\n")
     return 0
@@ -92,13 +115,15 @@ def export_session(data_dir: Path, session_id: int, out_dir: Path, fmt: str = "c
         except ImportError as exc:
             msg = "parquet export needs pyarrow (pip install 'walkmon[parquet]'), or use --format csv"
             raise ConfigError(msg) from exc
-    conn = open_database(data_dir, create=False)
+    from walkmon.safe_io import atomic_write, prepare_dir, write_text  # noqa: PLC0415
+
+    conn = open_database(data_dir, read_only=True)
     try:
         record = session_record(conn, session_id)
         tables = {name: read_session_table(conn, session_id, name) for name in EXPORT_NAMES}
     finally:
         conn.close()
-    out_dir.mkdir(parents=True, exist_ok=True)
+    prepare_dir(out_dir)
     written = []
     for name, cols in tables.items():
         data = {_RENAME.get(c, c): _clean(c, v) for c, v in cols.items()}
@@ -106,29 +131,31 @@ def export_session(data_dir: Path, session_id: int, out_dir: Path, fmt: str = "c
             data.pop("json", None)
         path = out_dir / f"{EXPORT_NAMES[name]}.{fmt}"
         if fmt == "csv":
-            with path.open("w", newline="", encoding="utf-8") as fh:
+            with atomic_write(path, "w", newline="", encoding="utf-8") as fh:  # temp + rename, never via a link
                 w = csv.writer(fh)
                 w.writerow(list(data))
                 w.writerows(zip(*data.values(), strict=True))
         else:
-            pq.write_table(pa.table(data), path)
+            with atomic_write(path, "wb") as fh:
+                pq.write_table(pa.table(data), fh)
         written.append(path)
     meta = out_dir / "session.json"
-    meta.write_text(json.dumps(record, indent=2, sort_keys=True, default=str) + "\n", encoding="utf-8")
+    write_text(meta, json.dumps(record, indent=2, sort_keys=True, default=str) + "\n")
     written.append(meta)
     return written
 
 
 def _export(args: argparse.Namespace) -> int:
     written = export_session(data_dir_of(args), args.session_id, Path(args.out), args.format)
-    sys.stdout.write(f"session {args.session_id}: wrote {', '.join(p.name for p in written)} to {args.out}\n")
+    sys.stdout.write(f"session {args.session_id}: wrote {', '.join(p.name for p in written)} to "
+                     f"{printable(args.out)}\n")
     return 0
 
 
 def _describe(sessions: dict[int, Any], ids: list[int]) -> str:
     return "\n".join(
-        f"  {i:>4}  {sessions[i].kind:<7} started {sessions[i].started_utc[:19]}  {sessions[i].n_frames} frames  "
-        f"{sessions[i].camera}" for i in ids)
+        f"  {i:>4}  {printable(sessions[i].kind):<7} started {printable(sessions[i].started_utc)[:19]}  "
+        f"{sessions[i].n_frames} frames  {printable(sessions[i].camera)}" for i in ids)
 
 
 def _delete(args: argparse.Namespace) -> int:

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
+from walkmon.drivers.imu_checks import ImuPlausibility
 from walkmon.errors import (
     SourceDisconnected,
     SourceError,
@@ -242,6 +243,10 @@ class _LogWriter:
                     fn, args = item
                     fn(*args)
                 self.log.maybe_flush()
+        except WalkmonError as exc:  # a deleted session, a full or damaged database: one line, no traceback
+            _log.error("session log: %s", exc)
+            self._errors.append(exc)
+            self._on_error()
         except BaseException as exc:
             _log.exception("session log thread failed")
             self._errors.append(exc)
@@ -317,6 +322,13 @@ class LivePipeline:
         self._imu_count = 0
         self._imu_ended = threading.Event()
         self._imu_newest_t = -math.inf  # video clock: the newest IMU sample taken from the buffer
+        #: plausibility of every IMU sample (finite, in a MEMS sensor's range, feels gravity, time not going
+        #: back): rejected ones are counted per reason and skipped, so a dead IMU leaves camera-only frames
+        self.imu_check = ImuPlausibility()
+        self._imu_rejected_since_log = 0
+        self._imu_rejected_logged_mono = -math.inf
+        #: frames whose fused angles were not finite: the camera's angles were used instead
+        self._fusion_invalid = 0
         self._started = False
         self.latency = LatencyHistogram()
 
@@ -464,6 +476,9 @@ class LivePipeline:
         for smp in samples:
             gyr0, acc = smp.gyroscope_rad_s, smp.accelerometer_m_s2
             gyr = gyr0 or (math.nan, math.nan, math.nan)
+            if not self.imu_check.check(float(smp.t_s), gyr0, acc):
+                self._imu_rejected_since_log += 1  # dead or insane IMU: counted, never fed to the fusion
+                continue
             self._writer.call(self.log.add_imu, float(smp.t_s), gyr, acc)
             self._imu_count += 1
             if self.fusion is not None and until_t_s is not None:
@@ -493,7 +508,21 @@ class LivePipeline:
     def _fusion_counters(self) -> dict[str, Any] | None:
         if self.fusion is None:
             return None
-        return {**self.fusion.counters(), "mode": self._fusion_mode}
+        return {**self.fusion.counters(), "mode": self._fusion_mode,
+                "imu_rejected": self._imu_rejected(), "frames_fusion_invalid": self._fusion_invalid}
+
+    def _imu_rejected(self) -> dict[str, int]:
+        """IMU samples rejected as implausible, per reason: by the source's reader (a file's rows) and here."""
+        out = collections.Counter(self.imu_check.rejected)
+        out.update(getattr(self.imu, "rejected", None) or {})
+        return dict(out)
+
+    def _log_imu_rejections(self) -> None:
+        """One warning at most every 10 s while IMU samples are being rejected (with the counts so far)."""
+        if self._imu_rejected_since_log and time.monotonic() - self._imu_rejected_logged_mono >= 10.0:
+            _log.warning("IMU: %s; frames without plausible IMU data are camera-only", self.imu_check.summary())
+            self._imu_rejected_since_log = 0
+            self._imu_rejected_logged_mono = time.monotonic()
 
     # -- the session ----------------------------------------------------------------------------------
     def run(self, duration_s: float | None = None) -> PipelineResult:
@@ -543,6 +572,7 @@ class LivePipeline:
                 frame = item.frame
                 if self.imu is not None:
                     self._drain_imu(float(frame.t_s))
+                    self._log_imu_rejections()
                 estimate = estimator.push(frame.image, frame.t_s)
                 abs_angles: tuple[float, float] | None = None
                 if self.fusion is not None:
@@ -551,6 +581,10 @@ class LivePipeline:
                                                    bool(getattr(status, "is_measured", True)))
                     angles, abs_angles = fused.angles_deg, fused.abs_angles_deg
                     self._fusion_mode = fused.mode if fused.mode == "fused" else f"camera:{fused.reason}"
+                    if not all(math.isfinite(v) for v in angles):  # never NULL angles from the fusion
+                        self._fusion_invalid += 1
+                        angles, abs_angles = _angles(estimate), (math.nan, math.nan)
+                        self._fusion_mode = "camera:fusion_invalid"
                 else:
                     angles = _angles(estimate)
                 done = time.monotonic()
@@ -617,16 +651,22 @@ class LivePipeline:
             if self._writer.dropped_calls:
                 _log.error("session log fell behind: %d writes dropped", self._writer.dropped_calls)
             try:
-                self.log.close(self._end_reason, meta={
-                    "log_writes_dropped": self._writer.dropped_calls,
-                    "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
-                    "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows,
-                    **({} if self.fusion is None else {"fusion": self._fusion_counters()})})
+                if self.log.n_frames == 0 and (error is not None or self._thread_errors) \
+                        and not isinstance(error, KeyboardInterrupt):
+                    # the start failed (camera missing, IMU unreadable): no frame was recorded, so no session
+                    self.log.discard(self._end_reason)
+                else:
+                    self.log.close(self._end_reason, meta={
+                        "log_writes_dropped": self._writer.dropped_calls,
+                        "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
+                        "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows,
+                        **({} if self.imu is None else {"imu_rejected": self._imu_rejected()}),
+                        **({} if self.fusion is None else {"fusion": self._fusion_counters()})})
             except Exception:  # a broken database must not hide why the session ended
                 _log.exception("closing the session log failed")
         if self._thread_errors:
             exc0 = self._thread_errors[0]
-            if isinstance(exc0, SourceError):
+            if isinstance(exc0, WalkmonError):
                 raise exc0
             msg = f"a pipeline thread failed: {exc0!r}"
             raise WalkmonError(msg) from exc0

@@ -32,12 +32,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from walkmon.errors import InvalidInputError
+from walkmon.errors import InvalidInputError, WalkmonError
 
 __all__ = [
     "DB_FILENAME",
     "SCHEMA_VERSION",
+    "SessionDeletedError",
     "SessionLog",
+    "check_session_id",
     "TABLE_COLUMNS",
     "SessionSummary",
     "default_data_dir",
@@ -144,24 +146,138 @@ def _db_path(data_dir: str | Path) -> Path:
     return p if p.suffix in (".sqlite", ".db") else p / DB_FILENAME
 
 
-def open_database(data_dir: str | Path, *, create: bool = True) -> sqlite3.Connection:
-    """Open (and create) the session database in ``data_dir`` (or at that ``.sqlite`` path), WAL mode."""
+#: ``PRAGMA application_id`` of a walkmon session database ("WKMN"): how walkmon knows a file is its own.
+APPLICATION_ID = 0x574B4D4E
+
+#: Columns every walkmon database has had since schema 1 (a foreign file with a ``sessions`` table lacks them).
+_SCHEMA1_COLUMNS: dict[str, tuple[str, ...]] = {
+    "sessions": ("id", "kind", "started_utc", "ended_utc", "end_reason", "camera", "imu", "config_json",
+                 "versions_json", "meta_json", "n_frames", "n_dropped"),
+    **{name: ("session_id", *(c for c in cols if c not in ("pitch_abs", "roll_abs", "fused")))
+       for name, cols in TABLE_COLUMNS.items()},
+}
+
+
+def _db_error(path: Path, exc: sqlite3.Error) -> InvalidInputError:
+    """One line for a database error: damaged, not a database, locked, read-only, full."""
+    text = str(exc)
+    if isinstance(exc, sqlite3.DatabaseError) and ("malformed" in text or "not a database" in text):
+        return InvalidInputError(
+            f"{path}: the session database is damaged ({text}); keep a copy and recover what is readable with "
+            f"'sqlite3 {path} .recover | sqlite3 recovered.sqlite'")
+    return InvalidInputError(f"{path}: session database error ({text})")
+
+
+def _check_walkmon_database(conn: sqlite3.Connection, path: Path) -> bool:
+    """Refuse a file that is not walkmon's before anything is written to it; False if it has no table yet.
+
+    Walkmon's: ``application_id`` is :data:`APPLICATION_ID` (databases before it: 0, with every walkmon table
+    and column of schema 1), and ``user_version`` at most :data:`SCHEMA_VERSION`.
+    """
+    app_id = int(conn.execute("PRAGMA application_id").fetchone()[0])
+    user_version = int(conn.execute("PRAGMA user_version").fetchone()[0])
+    tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+    if app_id not in (0, APPLICATION_ID):
+        msg = (f"{path}: not a walkmon session database (SQLite application_id {app_id:#x}); refusing to touch "
+               "it: give walkmon its own --data-dir")
+        raise InvalidInputError(msg)
+    if app_id == 0 and not tables - {"sqlite_sequence"}:
+        if user_version:
+            msg = f"{path}: not a walkmon session database (empty, user_version {user_version})"
+            raise InvalidInputError(msg)
+        return False
+    if app_id == 0:  # a database of walkmon before the application id, or another application's file
+        for table, cols in ((t, _SCHEMA1_COLUMNS[t]) for t in ("sessions", "frames")):  # the rest: created
+            have = {r[1] for r in conn.execute(f"PRAGMA table_info({table})")} if table in tables else set()
+            if not set(cols) <= have:
+                what = f"table {table} lacks {', '.join(sorted(set(cols) - have))}" if have else f"no table {table}"
+                msg = f"{path}: not a walkmon session database ({what}); refusing to touch it"
+                raise InvalidInputError(msg)
+    if user_version > SCHEMA_VERSION:
+        msg = (f"{path}: written by a newer walkmon (schema {user_version}, this one knows {SCHEMA_VERSION}); "
+               "upgrade walkmon")
+        raise InvalidInputError(msg)
+    return True
+
+
+def _private(path: Path) -> None:
+    """Make an existing database file (and its WAL/SHM) 0600 when it is ours: health data."""
+    import os  # noqa: PLC0415
+    import stat  # noqa: PLC0415
+
+    for p in (path, path.with_name(path.name + "-wal"), path.with_name(path.name + "-shm")):
+        try:
+            st = p.lstat()
+        except FileNotFoundError:
+            continue
+        if stat.S_ISREG(st.st_mode) and st.st_mode & 0o077 and st.st_uid == os.geteuid():
+            _log.warning("%s was readable by other users (mode %o): made it 0600", p, st.st_mode & 0o777)
+            os.chmod(p, 0o600)
+
+
+def _create_private(path: Path) -> None:
+    """Create the data folder (0700) and an empty database file (0600) unless they exist; never via a link."""
+    import os  # noqa: PLC0415
+
+    if path.is_symlink():
+        msg = f"{path}: the session database is a symbolic link; refusing to write health data through it"
+        raise InvalidInputError(msg)
+    if not path.parent.exists():
+        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+    if not path.exists():
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)
+        except FileExistsError:
+            return  # another process created it meanwhile
+        os.close(fd)
+
+
+def open_database(data_dir: str | Path, *, create: bool = True, read_only: bool = False) -> sqlite3.Connection:
+    """Open the session database in ``data_dir`` (or at that ``.sqlite`` path); WAL mode.
+
+    ``read_only`` (the commands that only read: sessions list/export, report, prune --dry-run) opens it with
+    SQLite's ``mode=ro``: nothing is written, not even the schema, so a read-only file works and its contents
+    and mtime stay as they were. Otherwise the folder (0700) and file (0600) are created when ``create``, and the
+    schema is brought up to date. Either way a file that is not walkmon's is refused before anything is
+    written to it (:func:`_check_walkmon_database`), and every SQLite error becomes one
+    :class:`~walkmon.errors.InvalidInputError` line.
+    """
+    from urllib.parse import quote  # noqa: PLC0415
+
     path = _db_path(data_dir)
-    if not create and not path.exists():
+    if (read_only or not create) and not path.exists():
         msg = f"{path}: no session database here (run 'walkmon live' or 'walkmon analyze --save' first)"
         raise InvalidInputError(msg)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.exists() and not path.is_file():
+        msg = f"{path}: not a file (a session database is one SQLite file)"
+        raise InvalidInputError(msg)
+    conn: sqlite3.Connection | None = None
     try:
+        if read_only:
+            conn = sqlite3.connect(f"file:{quote(str(path.resolve()))}?mode=ro", uri=True, check_same_thread=False,
+                                   timeout=10.0)
+            _check_walkmon_database(conn, path)
+            return conn
+        _create_private(path)
+        _private(path)
         conn = sqlite3.connect(str(path), check_same_thread=False, timeout=10.0)
+        _check_walkmon_database(conn, path)
         conn.execute("PRAGMA journal_mode=WAL")
         conn.execute("PRAGMA synchronous=FULL")
         conn.executescript(_SCHEMA)
         _migrate(conn)
+        conn.execute(f"PRAGMA application_id={APPLICATION_ID}")
         conn.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
         conn.commit()
-    except sqlite3.DatabaseError as exc:
-        msg = f"{path}: not a usable walkmon session database ({exc})"
-        raise InvalidInputError(msg) from exc
+        _private(path)  # the WAL and SHM files SQLite just made take the file's mode; make sure
+    except sqlite3.Error as exc:
+        if conn is not None:
+            conn.close()
+        raise _db_error(path, exc) from exc
+    except BaseException:
+        if conn is not None:
+            conn.close()
+        raise
     return conn
 
 
@@ -176,6 +292,14 @@ def _migrate(conn: sqlite3.Connection) -> None:
         if column not in have:
             conn.execute(f"ALTER TABLE {table} ADD COLUMN {column} {sql_type}")
             _log.info("session database: added %s.%s (schema %d)", table, column, SCHEMA_VERSION)
+
+
+class _SessionGone(Exception):
+    """Internal: the session row vanished (rolls the flush's transaction back)."""
+
+
+class SessionDeletedError(WalkmonError):
+    """The session being recorded was deleted by another process (``walkmon sessions delete --force``)."""
 
 
 def _num(v: object) -> object:
@@ -210,14 +334,20 @@ class SessionLog:
         self.flush_interval_s = flush_interval_s
         self.log_frames = log_frames
         self._conn = open_database(data_dir)
-        cur = self._conn.execute(
-            "INSERT INTO sessions (kind, started_utc, camera, imu, config_json, versions_json, meta_json) "
-            "VALUES (?, ?, ?, ?, ?, ?, ?)",
-            (kind, _utc_now(), camera, imu, json.dumps(config or {}, sort_keys=True, default=str),
-             json.dumps(versions(), sort_keys=True), json.dumps(meta or {}, sort_keys=True, default=str)),
-        )
-        self._conn.commit()
+        try:
+            with self._conn:
+                cur = self._conn.execute(
+                    "INSERT INTO sessions (kind, started_utc, camera, imu, config_json, versions_json, meta_json) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    (kind, _utc_now(), camera, imu, json.dumps(config or {}, sort_keys=True, default=str),
+                     json.dumps(versions(), sort_keys=True), json.dumps(meta or {}, sort_keys=True, default=str)),
+                )
+        except sqlite3.Error as exc:
+            self._conn.close()
+            raise _db_error(self.path, exc) from exc
         self.session_id = int(cur.lastrowid or 0)
+        #: True once another process deleted this session while it was recorded: nothing more is written
+        self.deleted = False
         self._buffers: dict[str, list[tuple[object, ...]]] = {name: [] for name in TABLE_COLUMNS}
         self._last_flush = time.monotonic()
         self.n_frames = 0
@@ -278,23 +408,47 @@ class SessionLog:
         """Commit every buffered row in one transaction."""
         if self._closed:
             return
-        with self._conn:
-            for name, rows in self._buffers.items():
-                if rows:
-                    cols = ("session_id", *TABLE_COLUMNS[name])
-                    self._conn.executemany(
-                        f"INSERT INTO {name} ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})", rows)
-                    rows.clear()
-            self._conn.execute("UPDATE sessions SET n_frames=?, n_dropped=? WHERE id=?",
-                               (self.n_frames, self.n_dropped, self.session_id))
+        if self.deleted:
+            for rows in self._buffers.values():
+                rows.clear()
+            return
+        try:
+            with self._conn:
+                # first: is the session still there? ('walkmon sessions delete --force' from another process)
+                cur = self._conn.execute("UPDATE sessions SET n_frames=?, n_dropped=? WHERE id=?",
+                                         (self.n_frames, self.n_dropped, self.session_id))
+                if cur.rowcount == 0:
+                    raise _SessionGone
+                for name, rows in self._buffers.items():
+                    if rows:
+                        cols = ("session_id", *TABLE_COLUMNS[name])
+                        self._conn.executemany(
+                            f"INSERT INTO {name} ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})", rows)
+                        rows.clear()
+        except _SessionGone:  # rolled back: no row is written under an id that no longer exists
+            self.deleted = True
+            for rows in self._buffers.values():
+                rows.clear()
+            msg = (f"session {self.session_id} was deleted from {self.path} by another process while it was being "
+                   "recorded; stopped recording it")
+            raise SessionDeletedError(msg) from None
+        except sqlite3.Error as exc:
+            raise _db_error(self.path, exc) from exc
         self._last_flush = time.monotonic()
 
     def close(self, end_reason: str = "stopped", meta: dict[str, object] | None = None) -> None:
         """Flush, record the end time, reason and counters, and close the database."""
         if self._closed:
             return
+        if self.deleted:
+            self._closed = True
+            self._conn.close()
+            return
         try:
-            self.flush()
+            try:
+                self.flush()
+            except SessionDeletedError:
+                return
             with self._conn:
                 self._conn.execute("UPDATE sessions SET ended_utc=?, end_reason=? WHERE id=?",
                                    (_utc_now(), end_reason, self.session_id))
@@ -304,9 +458,32 @@ class SessionLog:
                     self._conn.execute("UPDATE sessions SET meta_json=? WHERE id=?",
                                        (json.dumps(merged, sort_keys=True, default=str), self.session_id))
             self._conn.execute("PRAGMA wal_checkpoint(PASSIVE)")
+        except sqlite3.Error as exc:
+            raise _db_error(self.path, exc) from exc
         finally:
             self._closed = True
             self._conn.close()
+
+    def discard(self, why: str) -> None:
+        """Delete this session (it recorded nothing worth keeping, e.g. the camera failed to open) and close."""
+        if self._closed:
+            return
+        try:
+            if not self.deleted:
+                for rows in self._buffers.values():
+                    rows.clear()
+                _delete_rows(self._conn, [self.session_id])
+                _log.info("session %d discarded: %s", self.session_id, why)
+        except sqlite3.Error as exc:
+            raise _db_error(self.path, exc) from exc
+        finally:
+            self.deleted = True
+            self._closed = True
+            self._conn.close()
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
 
     def __enter__(self) -> SessionLog:
         return self
@@ -335,28 +512,65 @@ class SessionSummary:
 
 
 def list_sessions(data_dir: str | Path) -> list[SessionSummary]:
-    """Every session in the database, oldest first."""
-    conn = open_database(data_dir, create=False)
+    """Every session in the database, oldest first (opened read-only; a damaged file is reported, not listed)."""
+    path = _db_path(data_dir)
+    conn = open_database(data_dir, read_only=True)
     try:
+        if not _has_tables(conn):
+            return []
+        check = conn.execute("PRAGMA quick_check(1)").fetchone()[0]
+        if check != "ok":
+            raise _db_error(path, sqlite3.DatabaseError(f"database disk image is malformed: {check}"))
+        tables = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        hops = "(SELECT COUNT(*) FROM hops h WHERE h.session_id = s.id)" if "hops" in tables else "0"
+        alerts = ("(SELECT COUNT(*) FROM alerts a WHERE a.session_id = s.id AND a.state = 'raised')"
+                  if "alerts" in tables else "0")
         rows = conn.execute(
             "SELECT s.id, s.kind, s.started_utc, s.ended_utc, s.end_reason, s.camera, s.imu, "
             "(SELECT COUNT(*) FROM frames f WHERE f.session_id = s.id), s.n_dropped, "
-            "(SELECT COUNT(*) FROM hops h WHERE h.session_id = s.id), "
-            "(SELECT COUNT(*) FROM alerts a WHERE a.session_id = s.id AND a.state = 'raised'), "
+            f"{hops}, {alerts}, "
             "(SELECT MAX(t_s) - MIN(t_s) FROM frames f WHERE f.session_id = s.id) "
             "FROM sessions s ORDER BY s.id"
         ).fetchall()
+    except sqlite3.Error as exc:
+        raise _db_error(path, exc) from exc
     finally:
         conn.close()
     return [SessionSummary(r[0], r[1], r[2], r[3], r[4], r[5] or "", r[6] or "", int(r[7]), int(r[8] or 0),
                            int(r[9]), int(r[10]), float(r[11] or 0.0)) for r in rows]
 
 
+def _has_tables(conn: sqlite3.Connection) -> bool:
+    return conn.execute("SELECT 1 FROM sqlite_master WHERE type='table' AND name='sessions'").fetchone() is not None
+
+
+def _conn_path(conn: sqlite3.Connection) -> Path:
+    row = conn.execute("PRAGMA database_list").fetchone()
+    return Path(row[2] if row and row[2] else "session database")
+
+
+#: Largest session id: SQLite's INTEGER PRIMARY KEY is a signed 64-bit integer.
+MAX_SESSION_ID = 2**63 - 1
+
+
+def check_session_id(session_id: int) -> int:
+    """``session_id`` if it can be a session id (1 .. 2^63-1), else InvalidInputError (one line)."""
+    if not 1 <= int(session_id) <= MAX_SESSION_ID:
+        msg = f"no session {session_id} (session ids are 1 .. 2^63-1; see 'walkmon sessions list')"
+        raise InvalidInputError(msg)
+    return int(session_id)
+
+
 def session_record(conn: sqlite3.Connection, session_id: int) -> dict[str, object]:
     """The ``sessions`` row of ``session_id`` as a dict (JSON fields decoded); InvalidInputError if absent."""
+    session_id = check_session_id(session_id)
+    row = None
     conn.row_factory = sqlite3.Row
     try:
-        row = conn.execute("SELECT * FROM sessions WHERE id=?", (session_id,)).fetchone()
+        if _has_tables(conn):
+            row = conn.execute("SELECT * FROM sessions WHERE id=?", (session_id,)).fetchone()
+    except sqlite3.Error as exc:
+        raise _db_error(_conn_path(conn), exc) from exc
     finally:
         conn.row_factory = None
     if row is None:
@@ -364,19 +578,34 @@ def session_record(conn: sqlite3.Connection, session_id: int) -> dict[str, objec
         raise InvalidInputError(msg)
     d = dict(row)
     for k in ("config_json", "versions_json", "meta_json"):
-        d[k[:-5]] = json.loads(d.pop(k) or "{}")
+        try:
+            doc = json.loads(d.pop(k) or "{}")
+        except (TypeError, ValueError):
+            doc = {"unreadable": True}
+        d[k[:-5]] = doc
     return d
 
 
 def read_session_table(conn: sqlite3.Connection, session_id: int, table: str) -> dict[str, list[object]]:
-    """Columns of ``table`` for one session, ordered by time: {column: values}."""
+    """Columns of ``table`` for one session, ordered by time: {column: values}.
+
+    Columns an older database lacks (schema 1: ``pitch_abs``, ``roll_abs``, ``fused``) read as NULL (None).
+    """
     if table not in TABLE_COLUMNS:
         msg = f"unknown table {table!r}; known: {sorted(TABLE_COLUMNS)}"
         raise InvalidInputError(msg)
+    session_id = check_session_id(session_id)
     cols = TABLE_COLUMNS[table]
-    rows = conn.execute(
-        f"SELECT {', '.join(cols)} FROM {table} WHERE session_id=? ORDER BY t_s, rowid", (session_id,)
-    ).fetchall()
+    try:
+        have = {r[1] for r in conn.execute(f"PRAGMA table_info({table})")}
+        if not have:  # a table an older database never had (opened read-only, so not created)
+            return {c: [] for c in cols}
+        select = ", ".join(c if c in have else "NULL" for c in cols)
+        rows = conn.execute(
+            f"SELECT {select} FROM {table} WHERE session_id=? ORDER BY t_s, rowid", (session_id,)
+        ).fetchall()
+    except sqlite3.Error as exc:
+        raise _db_error(_conn_path(conn), exc) from exc
     return {c: [r[i] for r in rows] for i, c in enumerate(cols)}
 
 
@@ -444,7 +673,8 @@ def delete_sessions(data_dir: str | Path, ids: Iterable[int], *, force: bool = F
     loss or a crash). An id not in the database, or a refused one, raises
     :class:`~walkmon.errors.InvalidInputError` and deletes nothing.
     """
-    wanted = sorted({int(i) for i in ids})
+    wanted = sorted({check_session_id(i) for i in ids})
+    path = _db_path(data_dir)
     conn = open_database(data_dir, create=False)
     try:
         ended = dict(conn.execute("SELECT id, ended_utc IS NOT NULL FROM sessions").fetchall())
@@ -463,6 +693,8 @@ def delete_sessions(data_dir: str | Path, ids: Iterable[int], *, force: bool = F
             _vacuum(conn)
             _log.info("deleted session(s) %s from %s%s", ", ".join(map(str, wanted)), _db_path(data_dir),
                       f" (forced, without an end time: {', '.join(map(str, unended))})" if unended else "")
+    except sqlite3.Error as exc:
+        raise _db_error(path, exc) from exc
     finally:
         conn.close()
     return wanted
@@ -489,11 +721,15 @@ def prune_sessions(
         msg = f"keep must be >= 0, got {keep}"
         raise InvalidInputError(msg)
     now = now_utc or _dt.datetime.now(_dt.UTC)
-    cutoff = now - _dt.timedelta(days=older_than_days)
-    conn = open_database(data_dir, create=False)
+    try:
+        cutoff = now - _dt.timedelta(days=older_than_days)
+    except OverflowError:  # more days than a date can go back: nothing is that old
+        cutoff = _dt.datetime.min.replace(tzinfo=_dt.UTC)
+    path = _db_path(data_dir)
+    conn = open_database(data_dir, create=False, read_only=dry_run)
     try:
         ended = []  # (started, id), ended sessions only
-        for sid, started in conn.execute("SELECT id, started_utc FROM sessions WHERE ended_utc IS NOT NULL"):
+        for sid, started in ([] if not _has_tables(conn) else conn.execute("SELECT id, started_utc FROM sessions WHERE ended_utc IS NOT NULL")):
             try:
                 t = _dt.datetime.fromisoformat(started)
             except (TypeError, ValueError):
@@ -508,6 +744,8 @@ def prune_sessions(
             _vacuum(conn)
             _log.info("pruned %d session(s) started before %s: %s", len(doomed), cutoff.isoformat(timespec="seconds"),
                       ", ".join(map(str, doomed)))
+    except sqlite3.Error as exc:
+        raise _db_error(path, exc) from exc
     finally:
         conn.close()
     return doomed

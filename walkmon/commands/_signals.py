@@ -1,0 +1,112 @@
+"""Signal handling of the ``walkmon`` command line, from its first line on.
+
+SIGINT and SIGTERM must end every command cleanly at any moment, and ``walkmon live`` must never leave a
+session without an end time; SIGUSR1 (what ``systemctl reload walkmon`` sends) must never kill the monitor.
+
+* :func:`install` runs first in :func:`walkmon.cli.main`, before the subcommands (numpy, OpenCV) are imported.
+  Until a command says otherwise, SIGINT/SIGTERM raise :class:`Interrupted` in the main thread: the command
+  unwinds (a file being written is left as it was: :mod:`walkmon.safe_io`) and ``main`` prints one line and
+  exits 128 + the signal number. SIGUSR1 is ignored while nothing can take a calibration.
+* :func:`deliver_to` hands the signals to an object instead (``stop(reason)`` / ``request_calibration()``): from
+  just before ``walkmon live`` creates its session to its end, a signal never raises, it asks the pipeline to
+  stop, which closes the session. A :class:`PendingStop` holds what arrives before the pipeline exists and
+  passes it on (:meth:`PendingStop.forward_to`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+from collections.abc import Iterator
+from typing import Any, Protocol
+
+__all__ = ["Interrupted", "PendingStop", "deliver_to", "install", "signal_name"]
+
+
+class Interrupted(BaseException):  # noqa: N818 - like KeyboardInterrupt, not an error
+    """SIGINT or SIGTERM arrived while the command could simply unwind."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal_name(signum))
+        self.signum = signum
+
+
+class StopTarget(Protocol):
+    def stop(self, reason: str = ...) -> None: ...
+    def request_calibration(self) -> None: ...
+
+
+def signal_name(signum: int) -> str:
+    try:
+        return signal.Signals(signum).name
+    except ValueError:
+        return f"signal {signum}"
+
+
+_target: StopTarget | None = None
+
+
+def _on_stop(signum: int, _frame: object) -> None:
+    target = _target
+    if target is None:
+        raise Interrupted(signum)
+    target.stop(f"signal {signal_name(signum)}")
+
+
+def _on_usr1(_signum: int, _frame: object) -> None:
+    target = _target
+    if target is not None:
+        target.request_calibration()
+
+
+def install() -> None:
+    """Install the handlers (main thread only; elsewhere, e.g. a test calling main() from a thread: no-op)."""
+    try:
+        signal.signal(signal.SIGINT, _on_stop)
+        signal.signal(signal.SIGTERM, _on_stop)
+        if hasattr(signal, "SIGUSR1"):
+            signal.signal(signal.SIGUSR1, _on_usr1)
+    except ValueError:
+        pass
+
+
+@contextlib.contextmanager
+def deliver_to(target: StopTarget) -> Iterator[StopTarget]:
+    """Within the block SIGINT/SIGTERM call ``target.stop(reason)`` and SIGUSR1 ``target.request_calibration()``
+    instead of raising; the previous target (or raising) comes back after it."""
+    global _target  # noqa: PLW0603 - one process-wide signal disposition
+    previous = _target
+    _target = target
+    try:
+        yield target
+    finally:
+        _target = previous
+
+
+class PendingStop:
+    """A stand-in target while the real one is being built: remembers a stop (and a calibration request) and
+    replays them on :meth:`forward_to`, after which it forwards every further signal."""
+
+    def __init__(self) -> None:
+        self.reason = ""
+        self.calibrate = False
+        self._to: Any = None
+
+    def stop(self, reason: str = "stopped") -> None:
+        if self._to is not None:
+            self._to.stop(reason)
+        elif not self.reason:
+            self.reason = reason
+
+    def request_calibration(self) -> None:
+        if self._to is not None:
+            self._to.request_calibration()
+        else:
+            self.calibrate = True
+
+    def forward_to(self, target: StopTarget) -> None:
+        self._to = target
+        if self.reason:
+            target.stop(self.reason)
+        if self.calibrate:
+            target.request_calibration()
