@@ -2,8 +2,9 @@
 
 Frame ``i`` has time ``t_s = i / fps`` with ``fps`` from the container (so two analyses of one file agree, and
 ``t`` starts at 0 with the first frame). A missing file raises :class:`~walkmon.errors.InvalidInputError`; a
-file OpenCV cannot open or that yields no frame raises :class:`~walkmon.errors.SourceError`; both carry one
-line naming the file. ``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
+file OpenCV cannot open or that yields no frame raises :class:`~walkmon.errors.SourceError`; a file whose
+decoding stops well before the frame count its container lists (damaged mid-file) raises
+:class:`~walkmon.errors.InvalidInputError` when the reader gets there; all carry one line naming the file. ``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
 0 lets FFmpeg choose).
 """
 
@@ -73,6 +74,13 @@ class VideoFile:
             if self._index == 0:
                 msg = f"{self.path}: no decodable frames (corrupt or empty video)"
                 raise SourceError(msg)
+            if self._index < self.frame_count - max(2, self.frame_count // 100):
+                # the container lists more frames than could be decoded: damaged mid-file. Analysing the first
+                # part as if it were the whole walk would be silently wrong, so it is an error.
+                msg = (f"{self.path}: the video is damaged: decoding failed at frame {self._index} of "
+                       f"{self.frame_count} ({self._index / self.fps:.1f} s of {self.frame_count / self.fps:.1f} s); "
+                       "re-encode the readable part (e.g. ffmpeg -i VIDEO -c:v libx264 fixed.mp4) and analyse that")
+                raise InvalidInputError(msg)
             return None
         t_s = self._index / self.fps
         self._index += 1

@@ -35,6 +35,7 @@ __all__ = [
     "MAX_TABLE_BYTES",
     "atomic_write",
     "check_not_symlink",
+    "json_text",
     "prepare_dir",
     "read_bounded",
     "read_text_bounded",
@@ -124,6 +125,26 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
     with atomic_write(path, "wb") as fh:
         fh.write(data)
     return Path(path)
+
+
+def json_text(obj: Any, indent: int | None = 1) -> str:
+    """``obj`` as strict JSON text: NaN and infinities become null (``json.dumps`` would write the invalid
+    tokens ``NaN``/``Infinity``), numpy scalars and arrays become numbers and lists."""
+    import json  # noqa: PLC0415
+    import math  # noqa: PLC0415
+
+    def clean(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {str(k): clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        if hasattr(v, "tolist") and not isinstance(v, (str, bytes)):
+            return clean(v.tolist())
+        if isinstance(v, float) and not math.isfinite(v):
+            return None
+        return v
+
+    return json.dumps(clean(obj), indent=indent, allow_nan=False, default=str) + "\n"
 
 
 def read_bounded(path: str | Path, max_bytes: int, what: str = "file") -> bytes:

@@ -37,6 +37,11 @@ __all__ = [
 #: Horizontal field of view assumed for an unknown camera (a typical USB webcam / OAK colour camera at 4:3).
 DEFAULT_HFOV_DEG = 70.0
 
+#: Largest image side accepted, px (a 16K sensor is 15360 wide).
+MAX_IMAGE_SIDE_PX = 20000
+#: Largest |distortion coefficient| accepted (OpenCV's rational model reaches tens; 1e30 is a corrupted file).
+MAX_DISTORTION_COEFFICIENT = 1000.0
+
 #: Supported distortion models and how many coefficients each takes.
 DISTORTION_MODELS = {"plumb_bob": (4, 5, 8, 12, 14), "equidistant": (4,)}
 
@@ -65,8 +70,25 @@ class CameraModel:
         if not (np.all(np.isfinite(K)) and K[0, 0] > 0 and K[1, 1] > 0 and abs(K[2, 2] - 1.0) < 1e-9):
             msg = "camera_matrix must be finite with fx > 0, fy > 0 and K[2,2] == 1"
             raise ConfigError(msg)
-        if self.width_px <= 0 or self.height_px <= 0:
-            msg = f"image size must be positive, got {self.width_px}x{self.height_px}"
+        try:
+            w_px, h_px = _pixels(self.width_px, "image width"), _pixels(self.height_px, "image height")
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(str(exc)) from None
+        object.__setattr__(self, "width_px", w_px)
+        object.__setattr__(self, "height_px", h_px)
+        side = max(self.width_px, self.height_px)
+        for name, f in (("fx", K[0, 0]), ("fy", K[1, 1])):
+            # 0.05 x the image side: a 170 deg fisheye's focal is ~0.2 x; 100 x: a 0.6 deg telephoto field of view
+            if not 0.05 * side <= f <= 100.0 * side:
+                msg = (f"{name} = {f:.6g} px is not a lens focal length for a {self.width_px}x{self.height_px} image "
+                       f"(expected {0.05 * side:.4g}..{100.0 * side:.4g} px)")
+                raise ConfigError(msg)
+        if not (0.0 <= K[0, 2] <= self.width_px and 0.0 <= K[1, 2] <= self.height_px):
+            msg = (f"principal point ({K[0, 2]:.6g}, {K[1, 2]:.6g}) lies outside the {self.width_px}x{self.height_px} "
+                   "image")
+            raise ConfigError(msg)
+        if abs(K[0, 1]) > K[0, 0] or K[1, 0] != 0.0 or K[2, 0] != 0.0 or K[2, 1] != 0.0:
+            msg = "camera_matrix must be upper triangular ([[fx, s, cx], [0, fy, cy], [0, 0, 1]]) with |s| <= fx"
             raise ConfigError(msg)
         if self.distortion_model not in DISTORTION_MODELS:
             msg = f"distortion_model must be one of {sorted(DISTORTION_MODELS)}, got {self.distortion_model!r}"
@@ -76,6 +98,10 @@ class CameraModel:
                 f"{self.distortion_model} takes {DISTORTION_MODELS[self.distortion_model]} finite coefficients, "
                 f"got {d.size}"
             )
+            raise ConfigError(msg)
+        if np.any(np.abs(d) > MAX_DISTORTION_COEFFICIENT):
+            msg = (f"distortion coefficient {float(d[np.argmax(np.abs(d))]):.6g} is beyond +-{MAX_DISTORTION_COEFFICIENT:g}: "
+                   "not a lens (calibrate again)")
             raise ConfigError(msg)
         K.setflags(write=False)
         d.setflags(write=False)
@@ -163,7 +189,7 @@ class CameraModel:
             msg = f"{source}: expected a ROS camera_info mapping, got {type(data).__name__}"
             raise ConfigError(msg)
         try:
-            width, height = int(data["image_width"]), int(data["image_height"])
+            width, height = _pixels(data["image_width"], "image_width"), _pixels(data["image_height"], "image_height")
             K = _matrix(data["camera_matrix"], 3, 3, "camera_matrix")
             model = str(data.get("distortion_model", "plumb_bob"))
             dist_entry = data.get("distortion_coefficients", {"data": [0.0] * 5})
@@ -172,7 +198,7 @@ class CameraModel:
         except KeyError as exc:
             msg = f"{source}: missing key {exc.args[0]!r}"
             raise ConfigError(msg) from None
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             msg = f"{source}: {exc}"
             raise ConfigError(msg) from None
         try:
@@ -180,6 +206,17 @@ class CameraModel:
         except ConfigError as exc:
             msg = f"{source}: {exc}"
             raise ConfigError(msg) from None
+
+
+def _pixels(value: Any, key: str) -> int:
+    """A whole, finite pixel count (``.inf``, ``1e23``, ``640.5`` and text are refused)."""
+    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+        msg = f"{key} must be a whole number of pixels, got {value!r}"
+        raise TypeError(msg)
+    if not (math.isfinite(value) and float(value).is_integer() and 1 <= value <= MAX_IMAGE_SIDE_PX):
+        msg = f"{key} must be a whole number of pixels in 1..{MAX_IMAGE_SIDE_PX}, got {value!r}"
+        raise ValueError(msg)
+    return int(value)
 
 
 def _data_list(entry: Any, key: str) -> list[float]:
@@ -218,12 +255,17 @@ def read_camera_yaml(path: str | Path) -> CameraModel:
     """Read a ROS camera_info YAML file. Missing, unreadable or malformed files raise :class:`ConfigError`."""
     import yaml  # noqa: PLC0415
 
+    from walkmon.errors import InvalidInputError  # noqa: PLC0415
+    from walkmon.safe_io import read_bounded  # noqa: PLC0415
+
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        msg = f"cannot read calibration file {p}: {exc.strerror or exc}"
+        raw = read_bounded(p, 1 << 20, "calibration file")  # a camera_info YAML is < 2 kB; /dev/zero is refused
+    except InvalidInputError as exc:
+        msg = f"cannot read calibration file: {exc}"
         raise ConfigError(msg) from None
+    try:
+        text = raw.decode("utf-8")
     except UnicodeDecodeError:
         msg = f"calibration file {p} is not text"
         raise ConfigError(msg) from None
@@ -233,6 +275,9 @@ def read_camera_yaml(path: str | Path) -> CameraModel:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         msg = f"calibration file {p} is not valid YAML: {str(exc).splitlines()[0]}"
+        raise ConfigError(msg) from None
+    except RecursionError:
+        msg = f"calibration file {p} is nested too deeply to be a camera_info YAML"
         raise ConfigError(msg) from None
     return CameraModel.from_dict(data, source=str(p))
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import re
 import sys
 from collections.abc import Iterator
@@ -16,6 +17,9 @@ from walkmon.errors import InvalidInputError
 NAME = "calibrate"
 HELP = "calibrate camera intrinsics from chessboard views (video file or image folder) into ROS camera_info YAML"
 
+#: Most inner corners per board side (printed boards have < 30; 100000x100000 would allocate 112 GiB).
+MAX_BOARD_CORNERS = 100
+
 _IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
 
 
@@ -24,15 +28,43 @@ def _board(text: str) -> tuple[int, int]:
     if not m:
         msg = f"board must look like 9x6 (inner corners), got {text!r}"
         raise argparse.ArgumentTypeError(msg)
-    return int(m.group(1)), int(m.group(2))
+    cols, rows = int(m.group(1)), int(m.group(2))
+    if not (2 <= cols <= MAX_BOARD_CORNERS and 2 <= rows <= MAX_BOARD_CORNERS):
+        msg = f"board needs 2..{MAX_BOARD_CORNERS} inner corners per side, got {cols}x{rows}"
+        raise argparse.ArgumentTypeError(msg)
+    return cols, rows
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        msg = f"expected a number, got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+    if not (math.isfinite(value) and 0 < value <= 10_000):
+        msg = f"expected a size in mm in (0, 10000], got {text}"
+        raise argparse.ArgumentTypeError(msg)
+    return value
+
+
+def _every(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        msg = f"expected a whole number, got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+    if not 1 <= value <= 100_000:
+        msg = f"expected 1..100000, got {text}"
+        raise argparse.ArgumentTypeError(msg)
+    return value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("source", help="video file, or a folder of chessboard images")
     p.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
-    p.add_argument("--square-mm", type=float, default=25.0, help="chessboard square size in mm (default 25)")
+    p.add_argument("--square-mm", type=_positive, default=25.0, help="chessboard square size in mm (default 25)")
     p.add_argument("--model", choices=("plumb_bob", "equidistant"), default="plumb_bob", help="distortion model")
-    p.add_argument("--every", type=int, default=10, help="use every Nth video frame (default 10)")
+    p.add_argument("--every", type=_every, default=10, help="use every Nth video frame (default 10)")
     p.add_argument("--out", required=True, help="output camera_info YAML path")
 
 

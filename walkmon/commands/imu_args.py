@@ -17,7 +17,7 @@ def add_imu_arguments(p: argparse.ArgumentParser) -> None:
                    "video, or IMU-only analysis when no VIDEO is given; adds pitch_abs,roll_abs to angles.csv")
     g.add_argument("--imu-filter", choices=IMU_FILTERS, default="eskf",
                    help="IMU-only attitude filter (default eskf; vqf needs the vqf package)")
-    g.add_argument("--imu-offset-s", type=float, default=0.0, metavar="S",
+    g.add_argument("--imu-offset-s", type=finite_float, default=0.0, metavar="S",
                    help="seconds added to IMU timestamps to put them on the video clock (default 0)")
     g.add_argument("--imu-extrinsics", choices=("identity", "estimate"), default="identity",
                    help="IMU-to-camera rotation: identity (IMU axes = camera axes) or estimate it and the time "

@@ -242,18 +242,52 @@ def config_from_dict(data: dict[str, object]) -> Config:
         msg = f"unknown config section(s) {', '.join(unknown)}; known: {', '.join(sections)}"
         raise ConfigError(msg)
     hints = typing.get_type_hints(Config)
-    return Config(**{k: _section(hints[k], v, k) for k, v in data.items()})  # type: ignore[arg-type]
+    cfg = Config(**{k: _section(hints[k], v, k) for k, v in data.items()})  # type: ignore[arg-type]
+    _check_ranges(cfg)
+    return cfg
+
+
+#: Sane ranges of the settings whose extremes break the monitor rather than tune it: a 1e7 Hz resampling
+#: starves the systemd watchdog, a huge window holds the memory, a huge hook timeout lets hooks pile up.
+_RANGES: dict[tuple[str, str], tuple[float, float]] = {
+    ("indicators", "resample_hz"): (5.0, 200.0),
+    ("indicators", "window_s"): (1.0, 120.0),
+    ("indicators", "hop_s"): (0.05, 60.0),
+    ("indicators", "posture_window_s"): (0.1, 120.0),
+    ("indicators", "walking_window_s"): (0.1, 120.0),
+    ("indicators", "calibration_s"): (0.1, 120.0),
+    ("sinks", "hook_timeout_s"): (0.1, 600.0),
+    ("session", "retention_days"): (0.0, 36500.0),
+    ("pipeline", "queue_size"): (1, 1000),
+    ("pipeline", "reconnect_max_s"): (0.01, 3600.0),
+    ("pipeline", "reconnect_give_up_s"): (0.0, 7 * 86400.0),
+    ("pipeline", "frame_timeout_s"): (0.1, 600.0),
+}
+
+
+def _check_ranges(cfg: Config) -> None:
+    for (section, key), (lo, hi) in _RANGES.items():
+        value = getattr(getattr(cfg, section, None), key, None)
+        if value is not None and not lo <= value <= hi:
+            msg = f"{section}.{key} must be in [{lo:g}, {hi:g}], got {value!r}"
+            raise ConfigError(msg)
 
 
 def read_config(path: str | Path) -> Config:
     """Read a TOML config file; ConfigError on syntax errors, unknown keys or bad values."""
+    from walkmon.errors import InvalidInputError  # noqa: PLC0415
+    from walkmon.safe_io import read_bounded  # noqa: PLC0415
+
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError as exc:
+    if not p.exists():
         msg = f"{p}: no such config file"
-        raise ConfigError(msg) from exc
-    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(msg)
+    try:
+        text = read_bounded(p, 1 << 20, "config file").decode("utf-8")  # a config is < 10 kB; /dev/zero is refused
+    except InvalidInputError as exc:
+        msg = f"cannot read config: {exc}"
+        raise ConfigError(msg) from None
+    except UnicodeDecodeError as exc:
         msg = f"{p}: cannot read config ({exc})"
         raise ConfigError(msg) from exc
     try:
@@ -261,6 +295,9 @@ def read_config(path: str | Path) -> Config:
     except tomllib.TOMLDecodeError as exc:
         msg = f"{p}: invalid TOML: {exc}"
         raise ConfigError(msg) from exc
+    except RecursionError:
+        msg = f"{p}: nested too deeply to be a walkmon config"
+        raise ConfigError(msg) from None
     try:
         return config_from_dict(data)
     except ConfigError as exc:

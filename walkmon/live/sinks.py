@@ -1,8 +1,9 @@
 """Where alerts go: the log/terminal, a sound on the audio output, a command hook (alert JSON on stdin).
 
 Sinks never block the processing loop for long and never raise: a failing sink logs a warning and the
-session goes on. Child processes are started without waiting and reaped (or killed after
-``hook_timeout_s``) on later calls and on :meth:`AlertSinks.close`.
+session goes on. Child processes are started without waiting, each in its own process group, and
+killed with everything they started once ``hook_timeout_s`` has passed (a timer per child), reaped on later
+calls and on :meth:`AlertSinks.close`.
 """
 
 from __future__ import annotations
@@ -10,10 +11,13 @@ from __future__ import annotations
 import io
 import logging
 import math
+import os
 import shutil
+import signal
 import struct
 import subprocess
 import tempfile
+import threading
 import time
 import wave
 from dataclasses import dataclass
@@ -74,6 +78,20 @@ def beep_wav_bytes(freq_hz: float = 880.0, duration_s: float = 0.3, rate_hz: int
     return buf.getvalue()
 
 
+def _kill_group(proc: subprocess.Popen[bytes]) -> None:
+    """SIGKILL the child's process group (the hook and anything it started), then reap it."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    except OSError:
+        proc.kill()
+    try:
+        proc.wait(timeout=2)
+    except subprocess.TimeoutExpired:
+        _log.error("alert child pid %d did not die after SIGKILL", proc.pid)
+
+
 class AlertSinks:
     """Deliver :class:`AlertEvent` objects to the configured sinks. ``deliver(events)``, ``close()``."""
 
@@ -81,6 +99,7 @@ class AlertSinks:
         self.settings = settings
         self._stream = stream
         self._children: list[tuple[subprocess.Popen[bytes], float, str]] = []
+        self._timers: list[threading.Timer] = []
         self._tmpdir: tempfile.TemporaryDirectory[str] | None = None
         self._sound_argv: list[str] | None = None
         if settings.sound:
@@ -126,6 +145,7 @@ class AlertSinks:
                 stdin=subprocess.PIPE if stdin_bytes is not None else subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL,
                 stderr=subprocess.DEVNULL,
+                start_new_session=True,  # its own process group: the timeout kills the hook's children too
             )
         except OSError as exc:
             _log.warning("alert %s %s failed to start: %s", what, argv[0], exc)
@@ -141,17 +161,28 @@ class AlertSinks:
                 except OSError:
                     pass
         self._children.append((proc, time.monotonic(), what))
+        # killed on time even when no further alert (and so no _reap) comes
+        timer = threading.Timer(self.settings.hook_timeout_s, self._expire, (proc, what))
+        timer.daemon = True
+        timer.start()
+        self._timers.append(timer)
+
+    def _expire(self, proc: subprocess.Popen[bytes], what: str) -> None:
+        if proc.poll() is None:
+            _log.warning("alert %s (pid %d) still running after %g s: killed", what, proc.pid,
+                         self.settings.hook_timeout_s)
+            _kill_group(proc)
 
     def _reap(self) -> None:
         now = time.monotonic()
         alive = []
+        self._timers = [t for t in self._timers if t.is_alive()]
         for proc, started, what in self._children:
             rc = proc.poll()
             if rc is None and now - started > self.settings.hook_timeout_s:
-                _log.warning("alert %s (pid %d) still running after %.0f s: killed", what, proc.pid,
+                _log.warning("alert %s (pid %d) still running after %g s: killed", what, proc.pid,
                              self.settings.hook_timeout_s)
-                proc.kill()
-                proc.wait(timeout=2)
+                _kill_group(proc)
             elif rc is None:
                 alive.append((proc, started, what))
             elif rc != 0:
@@ -165,8 +196,10 @@ class AlertSinks:
             try:
                 proc.wait(timeout=max(0.0, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(timeout=2)
+                _kill_group(proc)
+        for timer in self._timers:
+            timer.cancel()
+        self._timers = []
         self._reap()
         self._children = []
         if self._tmpdir is not None:
