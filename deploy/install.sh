@@ -37,7 +37,10 @@ if ! id walkmon >/dev/null 2>&1; then
     useradd --system --home-dir "$DATA_DIR" --no-create-home --shell /usr/sbin/nologin \
         --groups video,dialout,audio walkmon
 fi
-install -d -o walkmon -g walkmon -m 0750 "$DATA_DIR"
+# health data: the session database is readable by the walkmon user only (an older install made it 0750/0644)
+install -d -o walkmon -g walkmon -m 0700 "$DATA_DIR"
+chmod 0700 "$DATA_DIR"
+find "$DATA_DIR" -maxdepth 1 -type f -name 'walkmon.sqlite*' -exec chmod 0600 {} +
 install -d -m 0755 "$PREFIX" "$CONF_DIR"
 
 echo "== virtual environment in $PREFIX/venv"

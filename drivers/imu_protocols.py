@@ -24,7 +24,9 @@ Protocols
     RVC mode sends **no gyroscope**: samples have ``gyroscope_rad_s = None`` and the device's own fused angles.
 ``csv``
     Text lines ``t,gx,gy,gz,ax,ay,az`` or ``gx,gy,gz,ax,ay,az`` (then the host time is used), with units set by
-    :class:`CsvUnits`. Header and malformed lines are counted, not fatal.
+    :class:`CsvUnits`. Header and malformed lines are counted, not fatal. A line has no checksum, so a
+    well-formed sample that cannot be real (:mod:`walkmon.drivers.imu_checks`) is skipped and counted as
+    ``implausible_samples``.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from dataclasses import dataclass, replace
 from typing import Protocol
 
 from walkmon.consts import GRAVITY_MS2
+from walkmon.drivers.imu_checks import ImuPlausibility
 from walkmon.drivers.imu_types import ImuSample, ParserStats
 from walkmon.errors import ConfigError
 
@@ -271,6 +274,7 @@ class CsvLineParser:
         self._buffer = bytearray()
         self._discarding = False
         self._stats = ParserStats()
+        self._plausible = ImuPlausibility()
 
     @property
     def stats(self) -> ParserStats:
@@ -324,8 +328,13 @@ class CsvLineParser:
             t_s = values[0] * self._time_scale
             values = values[1:]
         g, a = self._gyro_scale, self._accel_scale
+        gyro = (values[0] * g, values[1] * g, values[2] * g)
+        accel = (values[3] * a, values[4] * a, values[5] * a)
+        if not self._plausible.check(t_s, gyro, accel):  # no checksum: a corrupted line is caught here
+            self._count(good_packets=1, implausible_samples=1)
+            return None
         self._count(good_packets=1, samples=1)
-        return ImuSample(t_s, (values[0] * g, values[1] * g, values[2] * g), (values[3] * a, values[4] * a, values[5] * a))
+        return ImuSample(t_s, gyro, accel)
 
 
 def parser_for_protocol(protocol: str, csv_units: CsvUnits = CsvUnits()) -> ImuParser:

@@ -56,6 +56,9 @@ class ParserStats:
     incomplete_samples: int = 0
     #: Samples produced.
     samples: int = 0
+    #: Well-formed samples that cannot be real (non-finite, beyond a MEMS sensor's range, no gravity, time going
+    #: back: :mod:`walkmon.drivers.imu_checks`), skipped; CSV lines have no checksum to catch their corruption.
+    implausible_samples: int = 0
 
 
 @dataclass(frozen=True, slots=True)

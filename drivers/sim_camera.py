@@ -110,4 +110,7 @@ class SimCamera(CameraSource):
         it, self._it = self._it, None
         close = getattr(it, "close", None)
         if callable(close):
-            close()
+            try:
+                close()
+            except ValueError:  # still rendering a frame in the grabber thread: it ends with that thread
+                _log.debug("%s: generator busy in another thread; left to finish", self.url)

@@ -59,15 +59,26 @@ def _on_usr1(_signum: int, _frame: object) -> None:
         target.request_calibration()
 
 
-def install() -> None:
-    """Install the handlers (main thread only; elsewhere, e.g. a test calling main() from a thread: no-op)."""
+def install() -> dict[int, Any]:
+    """Install the handlers; the previous ones, for :func:`restore` (main thread only; elsewhere, e.g. a test
+    calling main() from a thread: nothing is installed)."""
+    previous: dict[int, Any] = {}
+    handlers = {signal.SIGINT: _on_stop, signal.SIGTERM: _on_stop}
+    if hasattr(signal, "SIGUSR1"):
+        handlers[signal.SIGUSR1] = _on_usr1
     try:
-        signal.signal(signal.SIGINT, _on_stop)
-        signal.signal(signal.SIGTERM, _on_stop)
-        if hasattr(signal, "SIGUSR1"):
-            signal.signal(signal.SIGUSR1, _on_usr1)
+        for sig, fn in handlers.items():
+            previous[sig] = signal.signal(sig, fn)
     except ValueError:
-        pass
+        restore(previous)
+        return {}
+    return previous
+
+
+def restore(previous: dict[int, Any]) -> None:
+    """Put back the handlers :func:`install` replaced (main() called in-process, e.g. by tests)."""
+    for sig, fn in previous.items():
+        signal.signal(sig, fn if fn is not None else signal.SIG_DFL)
 
 
 @contextlib.contextmanager

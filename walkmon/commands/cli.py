@@ -64,13 +64,15 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     from walkmon.commands import _signals  # noqa: PLC0415
 
-    _signals.install()  # first: a signal during the imports below must not print a traceback (or kill 'live')
+    previous = _signals.install()  # first: a signal during the imports below must not print a traceback
     try:
         return _main(argv)
     except (_signals.Interrupted, KeyboardInterrupt) as exc:
         signum = getattr(exc, "signum", 2)
         sys.stderr.write(f"walkmon: interrupted ({_signals.signal_name(signum)})\n")
         return 128 + signum
+    finally:
+        _signals.restore(previous)
 
 
 def _main(argv: Sequence[str] | None) -> int:
