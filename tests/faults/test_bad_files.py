@@ -1,0 +1,192 @@
+"""Fault injection, bad files: every bad input file or option ends in exit code 2 and one line on stderr, never a
+traceback, never exit 0 with wrong numbers (issue 12, items 1, 3, 5, 9, 12, 13)."""
+
+from __future__ import annotations
+
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+CAMERA = """image_width: {w}
+image_height: 120
+camera_matrix: {{rows: 3, cols: 3, data: [{fx}, 0, 79.5, 0, {fx}, 59.5, 0, 0, 1]}}
+distortion_model: plumb_bob
+distortion_coefficients: {{rows: 1, cols: 5, data: [{k1}, 0, 0, 0, 0]}}
+"""
+
+
+@pytest.mark.parametrize(
+    ("fields", "fragment"),
+    [
+        ({"fx": "1.0e+300"}, "not a lens focal length"),
+        ({"fx": "1.0e-300"}, "not a lens focal length"),
+        ({"w": "1.0e+23"}, "image_width"),
+        ({"w": ".inf"}, "image_width"),
+        ({"w": "-160"}, "image_width"),
+        ({"k1": "1.0e+30"}, "distortion coefficient"),
+        ({"k1": ".nan"}, "finite coefficients"),
+    ],
+)
+def test_insane_calibration_is_refused(walk: Path, tmp_path: Path, cli, fields, fragment) -> None:
+    calib = tmp_path / "cam.yaml"
+    calib.write_text(CAMERA.format(**{"w": "160", "fx": "114.25", "k1": "0.0", **fields}))
+    res = cli("analyze", walk / "video.mp4", "--calib", calib, "--out", tmp_path / "out", "--no-progress")
+    res.one_line_error(fragment)
+    assert not (tmp_path / "out" / "angles.csv").exists()
+
+
+def test_the_simulator_calibration_itself_is_accepted(walk: Path) -> None:
+    from walkmon.camera.model import read_camera_yaml
+
+    cam = read_camera_yaml(walk / "camera.yaml")  # the sanity bounds do not refuse a real lens
+    assert cam.width_px == 160 and 100 < cam.fx < 130
+
+
+@pytest.mark.parametrize("kind", ["nested", "dev_zero", "huge"])
+def test_hostile_calibration_files(walk: Path, tmp_path: Path, cli, kind: str) -> None:
+    if kind == "dev_zero":
+        calib = Path("/dev/zero")  # read until memory ran out before: now bounded to 1 MiB
+    else:
+        calib = tmp_path / "cam.yaml"
+        calib.write_text("a: " + "[" * 50_000 + "]" * 50_000 + "\n" if kind == "nested" else "# x\n" * 400_000)
+    res = cli("analyze", walk / "video.mp4", "--calib", calib, "--out", tmp_path / "out", "--no-progress")
+    res.one_line_error("calibration file")
+
+
+def test_imu_read_from_dev_zero_is_bounded(tmp_path: Path, cli) -> None:
+    res = cli("analyze", "--imu", "/dev/zero", "--out", tmp_path / "out")
+    res.one_line_error("/dev/zero", "larger than")
+
+
+def test_angles_csv_from_dev_zero_is_bounded(tmp_path: Path, cli) -> None:
+    res = cli("indicators", "/dev/zero", "--out", tmp_path / "out")
+    res.one_line_error("/dev/zero")
+
+
+def test_dead_imu_file_is_refused_for_imu_only_analysis(tmp_path: Path, cli) -> None:
+    imu = tmp_path / "zeros.csv"
+    imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(f"{i / 100:.2f},0,0,0,0,0,0\n" for i in range(500)))
+    res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
+    res.one_line_error("0 plausible IMU rows of 500", "no_gravity 500")
+
+
+def test_imu_that_does_not_overlap_the_video_is_an_error_not_zero_angles(walk: Path, tmp_path: Path, cli) -> None:
+    out = tmp_path / "out"
+    res = cli("analyze", walk / "video.mp4", "--imu", walk / "imu.csv", "--imu-offset-s", "1e9", "--out", out,
+              "--no-progress")
+    res.one_line_error("the IMU covers 0% of the video", "--imu-offset-s")
+    assert not (out / "angles.csv").exists() and not (out / "imu.json").exists()
+
+
+def test_imu_covering_part_of_the_video_fuses_and_writes_valid_json(walk: Path, tmp_path: Path, cli) -> None:
+    import json
+
+    out = tmp_path / "out"
+    res = cli("analyze", walk / "video.mp4", "--imu", walk / "imu.csv", "--imu-offset-s", "2.0", "--out", out,
+              "--no-progress")
+    assert res.rc == 0, res.err
+    info = json.loads((out / "imu.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in imu.json"))
+    assert 0.5 <= info["imu_coverage"] < 0.8  # 6 s video, IMU shifted by 2 s: 4/6 of it
+
+
+@pytest.mark.parametrize("offset", ["nan", "inf", "1e999"])
+def test_non_finite_imu_offset_is_a_usage_error(walk: Path, tmp_path: Path, cli, offset: str) -> None:
+    res = cli("analyze", walk / "video.mp4", "--imu", walk / "imu.csv", "--imu-offset-s", offset,
+              "--out", tmp_path / "out")
+    res.one_line_error("finite")
+
+
+def test_video_damaged_mid_file_is_an_error_not_a_shorter_walk(walk: Path, tmp_path: Path, cli) -> None:
+    data = bytearray((walk / "video.mp4").read_bytes())
+    start = int(len(data) * 0.4)
+    data[start : start + len(data) // 10] = bytes(len(data) // 10)  # a zeroed stretch in the middle
+    video = tmp_path / "damaged.mp4"
+    video.write_bytes(bytes(data))
+    res = cli("analyze", video, "--out", tmp_path / "out", "--no-progress")
+    res.one_line_error("damaged", "of 180")
+    assert not (tmp_path / "out" / "angles.csv").exists()
+
+
+def test_video_cut_in_half_is_refused(walk: Path, tmp_path: Path, cli) -> None:
+    data = (walk / "video.mp4").read_bytes()
+    video = tmp_path / "cut.mp4"
+    video.write_bytes(data[: len(data) // 2])
+    res = cli("analyze", video, "--out", tmp_path / "out", "--no-progress")
+    res.one_line_error(str(video))
+
+
+@pytest.mark.parametrize(("argv", "fragment"), [
+    (["--board", "100000x100000"], "2..100 inner corners"),
+    (["--board", "1x6"], "2..100 inner corners"),
+    (["--square-mm", "-5"], "(0, 10000]"),
+    (["--square-mm", "nan"], "(0, 10000]"),
+    (["--every", "0"], "1..100000"),
+])
+def test_calibrate_options_are_bounded(tmp_path: Path, cli, argv, fragment) -> None:
+    res = cli("calibrate", tmp_path, *argv, "--out", tmp_path / "cam.yaml")
+    res.one_line_error(fragment)
+
+
+@pytest.mark.parametrize(("toml", "fragment"), [
+    ("[indicators]\nresample_hz = 1e7\n", "indicators.resample_hz must be in [5, 200]"),
+    ("[sinks]\nhook_timeout_s = 1e9\n", "sinks.hook_timeout_s"),
+    ("[session]\nretention_days = 1e12\n", "session.retention_days"),
+    ("[session]\nretention_days = nan\n", "session.retention_days"),
+    ("[indicators]\nwindow_s = 1e6\n", "indicators.window_s"),
+    ("a = " + "[" * 5000 + "]" * 5000 + "\n", "walkmon config"),
+])
+def test_insane_config_is_refused_before_any_session_starts(tmp_path: Path, cli, toml: str, fragment: str) -> None:
+    cfg = tmp_path / "walkmon.toml"
+    cfg.write_text(toml)
+    data = tmp_path / "data"
+    res = cli("live", "--config", cfg, "--camera", "sim:normal:2?width=64&height=48", "--data-dir", data,
+              "--status", "none")
+    res.one_line_error(fragment)
+    assert not data.exists()  # no session (and no database) was created
+
+
+def test_config_from_dev_zero_is_bounded(tmp_path: Path, cli) -> None:
+    res = cli("live", "--config", "/dev/zero", "--camera", "sim:normal:2", "--data-dir", tmp_path / "d")
+    res.one_line_error("larger than")
+
+
+def test_imu_csv_reader_skips_and_counts_implausible_rows(tmp_path: Path) -> None:
+    from walkmon.tables import read_imu_csv
+
+    g = 9.81
+    rows = [(i / 100, 0.01, 0.0, 0.0, 0.0, -g, 0.0) for i in range(40)]
+    rows[5] = (0.05, 0.01, 0, 0, 0, 0, 0)  # dead accelerometer: no gravity
+    rows[9] = (0.09, 1e300, 0, 0, 0, -g, 0)  # gyro beyond any MEMS range
+    rows[12] = (0.12, 0, 0, 0, 400.0, -g, 0)  # 41 g
+    rows[20] = (0.05, 0, 0, 0, 0, -g, 0)  # time going back
+    text = "t,gx,gy,gz,ax,ay,az\n" + "".join(",".join(map(str, r)) + "\n" for r in rows)
+    text += "0.5,nan,0,0,0,-9.81,0\n0.51,1,2\n0.52,x,0,0,0,-9.81,0\n"  # non-finite, short, not a number
+    path = tmp_path / "imu.csv"
+    path.write_text(text)
+    rec = read_imu_csv(path)
+    kept = [r[0] for i, r in enumerate(rows) if i not in (5, 9, 12, 20)]
+    np.testing.assert_array_equal(rec.t_s, kept)
+    assert np.all(np.abs(rec.accelerometer_m_s2[:, 1] + g) < 1e-12)
+
+
+def test_session_ids_beyond_sqlite_range_and_huge_prune_ages(sessions_db: Path, tmp_path: Path, cli) -> None:
+    big = str(2**63)
+    for argv in (["sessions", "export", big, "--out", tmp_path / "x"], ["report", big, "--out", tmp_path / "r"],
+                 ["sessions", "delete", big], ["sessions", "delete", "0"], ["report", "-1"]):
+        res = cli(*argv, "--data-dir", sessions_db)
+        res.one_line_error("session id")
+    res = cli("sessions", "prune", "--older-than", "1e12", "--data-dir", sessions_db)
+    assert res.rc == 0 and "no session" in res.out, res.err
+    res = cli("sessions", "prune", "--older-than", "inf", "--data-dir", sessions_db)
+    res.one_line_error("DAYS")
+    assert math.isfinite(1e12)
+
+
+def test_missing_inputs_are_one_line(tmp_path: Path, cli) -> None:
+    cli("analyze", tmp_path / "nope.mp4", "--out", tmp_path / "o").one_line_error("nope.mp4")
+    cli("indicators", tmp_path / "nope.csv", "--out", tmp_path / "o").one_line_error("nope.csv")
+    cli("analyze", "--imu", tmp_path, "--out", tmp_path / "o").one_line_error(str(tmp_path))
+    shutil.rmtree(tmp_path / "o", ignore_errors=True)
