@@ -90,7 +90,7 @@ def _main(argv: Sequence[str] | None) -> int:
     try:
         return int(args._run(args) or 0)
     except WalkmonError as exc:
-        sys.stderr.write(f"walkmon {args.command}: error: {exc}\n")
+        sys.stderr.write(f"walkmon {args.command}: error: {' '.join(str(exc).splitlines())}\n")
     except FileNotFoundError as exc:
         sys.stderr.write(f"walkmon {args.command}: error: {exc.filename or exc}: no such file or directory\n")
     except PermissionError as exc:

@@ -160,7 +160,7 @@ _SCHEMA1_COLUMNS: dict[str, tuple[str, ...]] = {
 
 def _db_error(path: Path, exc: sqlite3.Error) -> InvalidInputError:
     """One line for a database error: damaged, not a database, locked, read-only, full."""
-    text = str(exc)
+    text = " ".join(str(exc).split())  # one line, whatever SQLite put in it
     if isinstance(exc, sqlite3.DatabaseError) and ("malformed" in text or "not a database" in text):
         return InvalidInputError(
             f"{path}: the session database is damaged ({text}); keep a copy and recover what is readable with "
