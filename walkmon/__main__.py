@@ -1,5 +1,5 @@
 """``python -m walkmon``: the ``walkmon`` command."""
 
-from walkmon.commands.cli import main
+from walkmon.commands.entry import main
 
 raise SystemExit(main())

@@ -64,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     from walkmon.commands import _signals  # noqa: PLC0415
 
-    previous = _signals.install()  # first: a signal during the imports below must not print a traceback
+    previous = _signals.install()  # (again, when called in-process): a signal during the imports below is ours
     try:
         return _main(argv)
     except (_signals.Interrupted, KeyboardInterrupt) as exc:

@@ -1,0 +1,115 @@
+"""Fault injection, signals at random times: SIGINT, SIGTERM and SIGUSR1 (``systemctl reload``) sent to
+``walkmon live`` at seeded random moments, some counted from the process start (the interpreter's start-up, the
+imports, the session being created, the camera opening), some from the first committed frames (a running
+session); every run must end in a closed session or no session, never a traceback and never a session without
+an end time (issue 12, item 6). Runs go a few at a time, each driven by its own thread."""
+
+from __future__ import annotations
+
+import signal
+import sqlite3
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+SEED = 2026
+CAMERA = "sim:normal:60?width=96&height=72&realtime=1"
+BATCH = 4
+
+
+def _schedule() -> list[tuple[signal.Signals, float, str]]:
+    """(signal, delay s, counted from "start" or "frames")."""
+    rng = np.random.default_rng(SEED)
+    runs = [(signal.SIGINT, 0.25, "start"), (signal.SIGTERM, 0.25, "start")]  # the interpreter's start, imports
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1):
+        runs += [(sig, float(d), "start") for d in rng.uniform(0.3, 4.0, 2)]
+        runs += [(sig, float(d), "frames") for d in rng.uniform(0.0, 1.0, 1)]
+    return runs
+
+
+def _in_interpreter_start(rc: int | None, sig: signal.Signals, err: str) -> bool:
+    """The signal arrived while the Python interpreter itself was starting (``site``, ``runpy``), before any
+    walkmon code could install a handler: SIGTERM's default action ends it silently, SIGINT makes Python print
+    its own KeyboardInterrupt. No session can exist yet; walkmon cannot act before its first line."""
+    if rc == -sig and sig != signal.SIGINT:
+        return True
+    python_only = "Traceback" in err and "/walkmon/" not in err  # runpy / site frames, none of walkmon's
+    return (rc == 1 and "init_import_site" in err) or (rc == -signal.SIGINT and python_only)
+
+
+def _has_frames(db: Path) -> bool:
+    if not db.exists():
+        return False
+    try:
+        conn = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+        try:
+            return bool(conn.execute("SELECT COUNT(*) FROM frames").fetchone()[0])
+        finally:
+            conn.close()
+    except sqlite3.Error:
+        return False
+
+
+def _drive(proc: subprocess.Popen[str], data: Path, sig: signal.Signals, delay: float, anchor: str) -> None:
+    if anchor == "frames":
+        deadline = time.monotonic() + 120
+        while not _has_frames(data / "walkmon.sqlite") and time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.1)
+    time.sleep(delay)
+    if proc.poll() is None:
+        proc.send_signal(sig)
+    if sig == signal.SIGUSR1:  # a calibration request: the session runs on; then stop it
+        time.sleep(1.0)
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGTERM)
+
+
+def test_signals_at_random_times_always_close_the_session(tmp_path: Path) -> None:
+    runs = _schedule()
+    results = []
+    for batch in range(0, len(runs), BATCH):
+        started = []
+        for i in range(batch, min(batch + BATCH, len(runs))):
+            data = tmp_path / f"run{i}"
+            cmd = [sys.executable, "-m", "walkmon", "live", "--camera", CAMERA, "--duration", "60", "--data-dir",
+                   str(data), "--status", "none"]
+            proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            th = threading.Thread(target=_drive, args=(proc, data, *runs[i]), daemon=True)
+            th.start()
+            started.append((i, proc, data, th))
+        for i, proc, data, th in started:
+            try:
+                out, err = proc.communicate(timeout=180)
+            finally:
+                if proc.poll() is None:
+                    proc.kill()
+                    proc.communicate()
+            th.join(5)
+            results.append((runs[i], proc.returncode, out, err, data))
+    outcomes = []
+    for (sig, delay, anchor), rc, out, err, data in results:
+        what = f"{sig.name} {delay:.2f} s after {anchor}: rc {rc}\n{out}{err}"
+        if _in_interpreter_start(rc, sig, err):  # before any walkmon code ran: Python's own
+            assert not (data / "walkmon.sqlite").exists(), what
+            outcomes.append("python start-up")
+            continue
+        assert "Traceback" not in err, what
+        assert rc in (0, 128 + signal.SIGINT, 128 + signal.SIGTERM), what
+        sessions = []
+        if (data / "walkmon.sqlite").exists():
+            conn = sqlite3.connect(data / "walkmon.sqlite")
+            try:
+                sessions = conn.execute("SELECT id, ended_utc, end_reason FROM sessions").fetchall()
+            finally:
+                conn.close()
+        assert len(sessions) <= 1 and all(s[1] for s in sessions), what  # closed, or none at all
+        if sessions:
+            assert sessions[0][2].startswith("signal SIG"), what
+        if rc != 0:  # interrupted before the session was created: one line, no session
+            assert not sessions and len(err.strip().splitlines()) == 1 and "interrupted" in err, what
+        outcomes.append("session" if sessions else "none")
+    assert outcomes.count("session") >= 3  # the runs counted from the first frames hit running sessions
