@@ -66,6 +66,12 @@ def test_angles_csv_from_dev_zero_is_bounded(tmp_path: Path, cli) -> None:
     res.one_line_error("/dev/zero")
 
 
+def test_baseline_from_dev_zero_is_refused(sessions_db: Path, tmp_path: Path, cli) -> None:
+    cli("report", "1", "--baseline", "/dev/zero", "--data-dir", sessions_db).one_line_error("not a regular file")
+    res = cli("indicators", tmp_path / "a.csv", "--baseline", "/dev/zero", "--out", tmp_path / "o")
+    res.one_line_error("not a regular file")
+
+
 def test_dead_imu_file_is_refused_for_imu_only_analysis(tmp_path: Path, cli) -> None:
     imu = tmp_path / "zeros.csv"
     imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(f"{i / 100:.2f},0,0,0,0,0,0\n" for i in range(500)))

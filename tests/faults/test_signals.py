@@ -112,4 +112,5 @@ def test_signals_at_random_times_always_close_the_session(tmp_path: Path) -> Non
         if rc != 0:  # interrupted before the session was created: one line, no session
             assert not sessions and len(err.strip().splitlines()) == 1 and "interrupted" in err, what
         outcomes.append("session" if sessions else "none")
+    print("signal outcomes:", {k: outcomes.count(k) for k in sorted(set(outcomes))})  # noqa: T201 - for -s runs
     assert outcomes.count("session") >= 3  # the runs counted from the first frames hit running sessions

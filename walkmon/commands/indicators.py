@@ -25,9 +25,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _existing_file(text: str) -> str:
-    """argparse type: checked before any long computation starts."""
-    if not Path(text).is_file():
-        msg = f"{text}: no such file"
+    """argparse type: a regular file of at most 4 MiB (an indicators.json is a few kB), checked before any long
+    computation starts (a device such as /dev/zero or a huge file is refused, not read until memory runs out)."""
+    from walkmon.safe_io import MAX_TEXT_INPUT_BYTES  # noqa: PLC0415
+
+    p = Path(text)
+    if not p.is_file():
+        msg = f"{text}: not a regular file" if p.exists() else f"{text}: no such file"
+        raise argparse.ArgumentTypeError(msg)
+    if p.stat().st_size > MAX_TEXT_INPUT_BYTES:
+        msg = f"{text}: larger than {MAX_TEXT_INPUT_BYTES >> 20} MiB, not an indicators.json"
         raise argparse.ArgumentTypeError(msg)
     return text
 

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from walkmon.commands.indicators import _existing_file as existing_small_file
 from walkmon.commands.sessions import session_id_arg
 
 NAME = "report"
@@ -15,7 +16,8 @@ HELP = "write indicators.json and report.html for a logged session (same report 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("session_id", type=session_id_arg, metavar="ID", help="session id (see 'walkmon sessions list')")
     p.add_argument("--out", metavar="DIR", help="output folder (default: ./session-ID)")
-    p.add_argument("--baseline", metavar="JSON", help="indicators.json of the same person's normal walk")
+    p.add_argument("--baseline", type=existing_small_file, metavar="JSON",
+                   help="indicators.json of the same person's normal walk")
     p.add_argument("--data-dir", metavar="DIR", help="session database folder (default ~/.local/share/walkmon)")
 
 

@@ -244,7 +244,7 @@ class _LogWriter:
                     fn(*args)
                 self.log.maybe_flush()
         except WalkmonError as exc:  # a deleted session, a full or damaged database: one line, no traceback
-            _log.error("session log: %s", exc)
+            _log.debug("session log: %s", exc)  # run() raises it: the caller reports it once
             self._errors.append(exc)
             self._on_error()
         except BaseException as exc:
@@ -368,6 +368,9 @@ class LivePipeline:
                 else:
                     while not self._stop.is_set() and not self.queue.put_wait(item, _GET_TIMEOUT_S):
                         pass  # back-pressure for sources read as fast as possible
+        except WalkmonError as exc:  # e.g. a video file damaged mid-way: one line, the session ends with it
+            _log.debug("camera: %s", exc)  # run() raises it: the caller reports it once
+            self._thread_errors.append(exc)
         except BaseException as exc:
             _log.exception("camera grabber thread failed")
             self._thread_errors.append(exc)  # the queue closes below: frames already grabbed are still processed
@@ -432,6 +435,10 @@ class LivePipeline:
                             self._imu_buffer.popleft()
                             self._imu_overflows += 1
                         self._imu_buffer.append(smp)
+        except WalkmonError as exc:
+            _log.debug("IMU: %s", exc)  # run() raises it: the caller reports it once
+            self._thread_errors.append(exc)
+            self._stop.set()
         except BaseException as exc:
             _log.exception("IMU reader thread failed")
             self._thread_errors.append(exc)
