@@ -17,7 +17,6 @@ This module reads and writes files (it is the front door); the packages it calls
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -144,9 +143,8 @@ class Analysis:
     def write(self, out_dir: str | Path, *, angles: bool = True) -> dict[str, Path]:
         """Write the files of ``walkmon analyze`` into ``out_dir`` (created): angles.csv (``angles=False``: not),
         imu.json when an IMU was used, indicators.json, report.html. Returns ``{file name: path}``."""
-        from walkmon.tables import write_indicators, write_table  # noqa: PLC0415
-
         from walkmon.safe_io import json_text, prepare_dir, write_text  # noqa: PLC0415
+        from walkmon.tables import write_indicators, write_table  # noqa: PLC0415
 
         out = prepare_dir(Path(out_dir))  # 0700; a symlinked folder is refused (every file: walkmon.safe_io)
         written: dict[str, Path] = {}
@@ -365,6 +363,31 @@ def _imu_only_columns(imu_path: str | Path, imu_filter: str, offset_s: float) ->
     return dict(cols), info
 
 
+#: Least share of the video's time span the IMU must cover to be fused (below: an error, not zero angles).
+MIN_IMU_COVERAGE = 0.5
+
+
+def _imu_coverage(imu_t_s: NDArray[np.float64], offset_s: float, frame_t_s: NDArray[np.float64], name: str) -> float:
+    """The share of the video's time span the IMU covers (IMU times + ``offset_s`` on the video clock).
+
+    Under :data:`MIN_IMU_COVERAGE` (a wrong ``--imu-offset-s``, another recording's IMU, a too-short file) the
+    fusion would give angles that are not measurements (all zero with no overlap): InvalidInputError naming both
+    spans. Under 95 %: a warning.
+    """
+    v0, v1 = float(frame_t_s[0]), float(frame_t_s[-1])
+    i0, i1 = float(imu_t_s[0]) + offset_s, float(imu_t_s[-1]) + offset_s
+    coverage = max(0.0, min(v1, i1) - max(v0, i0)) / max(v1 - v0, 1e-9)
+    if not coverage >= MIN_IMU_COVERAGE:
+        msg = (f"{name}: the IMU covers {coverage:.0%} of the video (video {v0:.2f}..{v1:.2f} s, IMU "
+               f"{i0:.6g}..{i1:.6g} s on the video clock with --imu-offset-s {offset_s:g}); need at least "
+               f"{MIN_IMU_COVERAGE:.0%}: check --imu-offset-s and that the IMU file belongs to this video")
+        raise InvalidInputError(msg)
+    if coverage < 0.95:
+        _log.warning("%s: the IMU covers only %.0f%% of the video; frames outside it are not fused", name,
+                     100 * coverage)
+    return round(coverage, 4)
+
+
 def _fused_columns(
     columns: dict[str, Any], estimates: Sequence[RotationEstimate], imu_path: str | Path, offset_s: float,
     extrinsics: str,
@@ -401,6 +424,7 @@ def _fused_columns(
         _log.info("using the estimated extrinsics (residual %.2f deg/s)", ext.residual_deg_s)
     info["extrinsics_used"] = {"camera_from_imu": settings.camera_from_imu_matrix.round(6).tolist(),
                                "time_offset_s": settings.time_offset_s}
+    info["imu_coverage"] = _imu_coverage(imu.t_s, settings.time_offset_s, ft, str(imu_path))
     cols, track = fused_columns(imu, ft, visual, ok, settings)
     out: dict[str, Any] = {"t": t}
     out.update({k: cols[k] for k in ("pitch", "yaw", "roll", "pitch_abs", "roll_abs")})

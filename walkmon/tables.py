@@ -123,8 +123,8 @@ def read_table(
             columns[name].append(value)
     out = {name: np.asarray(vals, dtype=float) for name, vals in columns.items() if name not in skipped}
     if not skip_bad_rows and "t" in out and np.any(np.diff(out["t"]) < 0):
-        bad = int(np.argmax(np.diff(out["t"]) < 0)) + 3
-        msg = f"{p}: column t decreases at line {bad}"
+        line = int(np.argmax(np.diff(out["t"]) < 0)) + 3
+        msg = f"{p}: column t decreases at line {line}"
         raise InvalidInputError(msg)
     return out
 

@@ -6,8 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walkmon.rotation.geometry import rotation_angle_deg, rotation_from_bearings, rotation_from_rotvec, \
-    select_nearest_rotation
+from walkmon.rotation.geometry import (
+    rotation_angle_deg,
+    rotation_from_bearings,
+    rotation_from_rotvec,
+    select_nearest_rotation,
+)
 
 
 def _is_rotation(R: np.ndarray) -> bool:

@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import contextlib
 import signal
-from collections.abc import Iterator
-from typing import Any, Protocol
+from collections.abc import Callable, Iterator
+from typing import Any, Protocol, TypeVar
 
 __all__ = ["Interrupted", "PendingStop", "deliver_to", "install", "signal_name"]
 
@@ -44,6 +44,7 @@ def signal_name(signum: int) -> str:
 
 
 _target: StopTarget | None = None
+_T = TypeVar("_T", bound=StopTarget)
 
 
 def _on_stop(signum: int, _frame: object) -> None:
@@ -63,7 +64,7 @@ def install() -> dict[int, Any]:
     """Install the handlers; the previous ones, for :func:`restore` (main thread only; elsewhere, e.g. a test
     calling main() from a thread: nothing is installed)."""
     previous: dict[int, Any] = {}
-    handlers = {signal.SIGINT: _on_stop, signal.SIGTERM: _on_stop}
+    handlers: dict[int, Callable[[int, Any], None]] = {signal.SIGINT: _on_stop, signal.SIGTERM: _on_stop}
     if hasattr(signal, "SIGUSR1"):
         handlers[signal.SIGUSR1] = _on_usr1
     try:
@@ -82,7 +83,7 @@ def restore(previous: dict[int, Any]) -> None:
 
 
 @contextlib.contextmanager
-def deliver_to(target: StopTarget) -> Iterator[StopTarget]:
+def deliver_to(target: _T) -> Iterator[_T]:
     """Within the block SIGINT/SIGTERM call ``target.stop(reason)`` and SIGUSR1 ``target.request_calibration()``
     instead of raising; the previous target (or raising) comes back after it."""
     global _target  # noqa: PLW0603 - one process-wide signal disposition

@@ -4,10 +4,24 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from walkmon.imu.recordings import IMU_FILTERS
 
-__all__ = ["add_imu_arguments"]
+__all__ = ["add_imu_arguments", "finite_float"]
+
+
+def finite_float(text: str) -> float:
+    """argparse type: a finite number (no nan, inf, 1e999)."""
+    try:
+        value = float(text)
+    except ValueError:
+        msg = f"expected a number, got {text!r}"
+        raise argparse.ArgumentTypeError(msg) from None
+    if not math.isfinite(value):
+        msg = f"expected a finite number, got {text!r}"
+        raise argparse.ArgumentTypeError(msg)
+    return value
 
 
 def add_imu_arguments(p: argparse.ArgumentParser) -> None:
