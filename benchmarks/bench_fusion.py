@@ -229,6 +229,7 @@ def load_broad(path: Path, max_seconds: float | None) -> dict:
         "name": path.stem, "t": np.arange(len(gyr)) / rate, "gyr": gyr, "acc": acc, "rate": rate,
         "valid": movement & np.all(np.isfinite(quat), axis=1),
         "down_true": -rotation_matrices_from_quaternions_wxyz(np.nan_to_num(quat, nan=1.0))[:, 2, :],
+        "down_true_raw": np.where(np.all(np.isfinite(quat), axis=1, keepdims=True), 0.0, np.nan) * np.ones((1, 3)),
     }
 
 

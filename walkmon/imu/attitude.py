@@ -38,6 +38,17 @@ from walkmon.errors import ConfigError, InvalidInputError
 
 __all__ = [
     "DEFAULT_ATTITUDE_SETTINGS",
+    "DEFAULT_IMU_FILTER",
+    "IMU_FILTERS",
+    "WALKING_ATTITUDE_SETTINGS",
+    "AttitudeCore",
+    "ErrorStateLayout",
+    "EskfCore",
+    "ImuFilterSettings",
+    "VqfCore",
+    "make_core",
+    "rotation_from_quaternion_wxyz",
+    "track_attitude",
     "GYROSCOPE_RULES",
     "HANDHELD_ATTITUDE_SETTINGS",
     "AttitudeEstimate",
@@ -110,11 +121,11 @@ class AttitudeSettings:
     many seconds in the world frame, at ``gravity_update_hz`` with std ``gravity_std_lowpass`` (VQF's idea; see
     :data:`HANDHELD_ATTITUDE_SETTINGS`); 0 (default, best for walking) = per-sample updates as above.
     ``rate_hz_nominal``: the IMU rate (set from the data by the offline functions).
-    ``gyroscope_rule``: what a gyroscope sample means, a property of the sensor: ``"trapezoid"`` (default) for
-    instantaneous rates at the sample time (the simulator's), integrated with the trapezoidal rule;
-    ``"backward"`` for the mean rate over the interval ending at the sample (what filtered MEMS outputs behave
-    like, and what VQF and imufusion assume: on BROAD's real IMU it cuts the inclination error of fast
-    rotations from 1.9 to 1.2 deg, benchmarks/results/fusion.md).
+    ``gyroscope_rule``: what a gyroscope sample means, a property of the sensor: ``"backward"`` (default) for
+    the mean rate over the interval ending at the sample (what real MEMS IMUs report, the simulator's IMU
+    included, and what VQF and imufusion assume: on BROAD's real IMU it cuts the inclination error of fast
+    rotations from 1.9 to 1.2 deg); ``"trapezoid"`` for instantaneous rates at the sample time, integrated with
+    the trapezoidal rule (the old simulator's samples).
     """
 
     gyroscope_noise_rad_s_sqrt_hz: float = 3e-4
@@ -135,7 +146,7 @@ class AttitudeSettings:
     rest_rate_deg_s: float = 0.2
     rest_rate_std_rad_s: float = 0.005
     rate_hz_nominal: float = 200.0
-    gyroscope_rule: str = "trapezoid"
+    gyroscope_rule: str = "backward"
 
     def __post_init__(self) -> None:
         for name in self.__slots__:  # type: ignore[attr-defined]
@@ -153,6 +164,10 @@ class AttitudeSettings:
 
 
 DEFAULT_ATTITUDE_SETTINGS = AttitudeSettings()
+
+#: walkmon's filter as it shipped before VQF became the default (``--imu-filter eskf``): gyro samples taken as
+#: instantaneous rates (the old simulator's), per-sample gravity updates; diverged on vigorous real motion.
+WALKING_ATTITUDE_SETTINGS = AttitudeSettings(gyroscope_rule="trapezoid")
 
 #: For hand-held or general motion (no sustained accelerations) with a real MEMS IMU: gravity from the
 #: accelerometer low-passed over 2 s in the gyro-integrated frame (VQF's idea), a firmer gravity reference
@@ -202,6 +217,37 @@ class AttitudeEstimate:
 
 
 # ------------------------------------------------------------------------------------------------ filter
+@dataclass(frozen=True, slots=True)
+class ErrorStateLayout:
+    """The error state of :class:`ImuAttitudeFilter`: tilt/orientation error (3, sensor frame), gyroscope bias
+    (3), ``n_clones`` orientation clones (3 each), then ``n_extra`` additive states."""
+
+    n_clones: int = 0
+    n_extra: int = 0
+
+    @property
+    def dim(self) -> int:
+        return 6 + 3 * self.n_clones + self.n_extra
+
+    @property
+    def tilt(self) -> slice:
+        return slice(0, 3)
+
+    @property
+    def bias(self) -> slice:
+        return slice(3, 6)
+
+    def clone(self, index: int) -> slice:
+        if not 0 <= index < self.n_clones:
+            msg = f"clone index {index} out of range (n_clones={self.n_clones})"
+            raise IndexError(msg)
+        return slice(6 + 3 * index, 9 + 3 * index)
+
+    @property
+    def extra(self) -> slice:
+        return slice(6 + 3 * self.n_clones, self.dim)
+
+
 class _RestDetector:
     """Rest when gyro and accelerometer stay within thresholds of their 0.5 s low-pass for ``rest_min_s``."""
 
@@ -302,6 +348,48 @@ class ImuAttitudeFilter:
         self._rotation_gyro = np.eye(3)  # bias-corrected gyro integration, never corrected by gravity
         self._since_gravity_s = 0.0
 
+    # -- read-only views of the state (callers never index the covariance) --------------------------------
+    @property
+    def layout(self) -> ErrorStateLayout:
+        """Where each block of the error state lives (tilt, bias, clones, extra states)."""
+        return ErrorStateLayout(self.n_clones, self.n_extra)
+
+    @property
+    def bias_rad_s(self) -> NDArray[np.float64]:
+        """The gyroscope bias estimate (rad/s, filter axes; a copy)."""
+        return self.bias.copy()
+
+    @property
+    def bias_std_rad_s(self) -> float:
+        """Uncertainty of the bias estimate: the largest per-axis standard deviation (rad/s)."""
+        return float(np.sqrt(np.max(np.diag(self.kf.P)[3:6])))
+
+    @property
+    def gravity_down(self) -> NDArray[np.float64] | None:
+        """Gravity's direction in the sensor frame now (unit vector), None before the first accelerometer."""
+        if self.down_world is None:
+            return None
+        return self.rotation_world.T @ self.down_world
+
+    @property
+    def extra_std(self) -> NDArray[np.float64]:
+        """Standard deviations of the extra states (``n_extra``)."""
+        return np.sqrt(np.diag(self.kf.P)[self.layout.extra])
+
+    def set_extra_prior(self, std: ArrayLike, walk_per_sqrt_s: ArrayLike) -> None:
+        """Prior std of the extra states (uncorrelated with the rest) and their random walk per sqrt(s)."""
+        sl = self.layout.extra
+        std = np.asarray(std, dtype=float).reshape(-1)
+        if std.shape != (self.n_extra,):
+            msg = f"set_extra_prior needs {self.n_extra} values, got {std.shape}"
+            raise InvalidInputError(msg)
+        P = self.kf.P
+        P[sl, :] = 0.0
+        P[:, sl] = 0.0
+        P[sl, sl] = np.diag(std**2)
+        self.extra = np.zeros(self.n_extra)
+        self.extra_walk_per_sqrt_s = np.asarray(walk_per_sqrt_s, dtype=float).reshape(self.n_extra).copy()
+
     def _set_down(self, down: NDArray[np.float64]) -> None:
         """Fix gravity's direction in the world frame and drop the prior's heading part (about gravity)."""
         self.down_world = down
@@ -397,6 +485,42 @@ class ImuAttitudeFilter:
             self._last_gyro = gyro
         return status
 
+    def zero_rate_update(self, gyro: NDArray[np.float64]) -> bool:
+        """At rest: the gyroscope reads its bias (a gated zero-rate measurement on all three axes)."""
+        H = np.zeros((3, self.kf.dim_x))
+        H[:, 3:6] = np.eye(3)
+        return self.update(gyro - self.bias, H, np.eye(3) * self.settings.rest_rate_std_rad_s**2, gate=_GATE_3DOF)
+
+    def gravity_update(self, measured_down: ArrayLike, std: float, gate: float | None = _GATE_3DOF) -> bool:
+        """Gravity's direction in the sensor frame measured (unit vector, e.g. from an attitude core), with
+        ``std`` (~radians) per axis; gated (chi-square, 3 dof) unless ``gate`` is None. False when gated out."""
+        assert self.down_world is not None
+        h0 = self.rotation_world.T @ self.down_world
+        H = np.zeros((3, self.kf.dim_x))
+        H[:, 0:3] = skew(h0)
+        m = np.asarray(measured_down, dtype=float)
+        return self.update(m / np.linalg.norm(m) - h0, H, np.eye(3) * std**2, gate=gate)
+
+    def align_to_gravity(self, measured_down: ArrayLike, tilt_std_deg: float) -> None:
+        """Reset the tilt: rotate the orientation by the smallest rotation that makes its gravity direction
+        ``measured_down`` (sensor frame), keeping the heading; the tilt covariance restarts at ``tilt_std_deg``
+        and its correlations with the other states are dropped (the recovery after a long rejection)."""
+        assert self.down_world is not None
+        m = np.asarray(measured_down, dtype=float)
+        m = m / np.linalg.norm(m)
+        h0 = self.rotation_world.T @ self.down_world
+        axis = np.cross(m, h0)  # R Exp(phi): new gravity Exp(phi)^T h0 = m
+        s_, c_ = float(np.linalg.norm(axis)), float(np.clip(h0 @ m, -1.0, 1.0))
+        if s_ > 1e-12:
+            self.rotation_world = self.rotation_world @ exp_so3(axis / s_ * np.arctan2(s_, c_))
+        P = self.kf.P
+        sl = self.layout.tilt
+        P[sl, :] = 0.0
+        P[:, sl] = 0.0
+        down = self.rotation_world.T @ self.down_world
+        tilt_var = np.radians(tilt_std_deg) ** 2
+        P[sl, sl] = tilt_var * (np.eye(3) - np.outer(down, down)) + 1e-8 * np.outer(down, down)
+
     def correct(self, gyro: NDArray[np.float64], accel: NDArray[np.float64]) -> AttitudeStatus:
         s = self.settings
         norm = float(np.linalg.norm(accel))
@@ -406,15 +530,12 @@ class ImuAttitudeFilter:
             self._set_down(-accel / norm)
             return AttitudeStatus.INITIALISING
         dt = 1.0 / s.rate_hz_nominal
-        bias_std = float(np.sqrt(np.max(np.diag(self.kf.P)[3:6])))
+        bias_std = self.bias_std_rad_s
         trusted = self.bias if bias_std < 0.1 * np.radians(s.rest_gyroscope_deg_s) else None
         self.at_rest = self._rest.push(gyro, accel, dt, trusted)
         status = AttitudeStatus.GRAVITY
-        if self.at_rest:
-            H = np.zeros((3, self.kf.dim_x))
-            H[:, 3:6] = np.eye(3)
-            if self.update(gyro - self.bias, H, np.eye(3) * s.rest_rate_std_rad_s**2, gate=_GATE_3DOF):
-                status = AttitudeStatus.REST
+        if self.at_rest and self.zero_rate_update(gyro):
+            status = AttitudeStatus.REST
         if s.gravity_lowpass_s > 0 and not self.at_rest:
             return self._lowpass_gravity_update(accel, dt)
         if abs(norm - GRAVITY_MS2) > s.acceleration_rejection_m_s2 or norm < 1e-6:
@@ -472,6 +593,169 @@ class ImuAttitudeFilter:
             gyroscope_bias_rad_s=self.bias.copy(),
             status=status,
         )
+
+
+# ---------------------------------------------------------------------------------- IMU attitude cores
+#: IMU attitude filters (``--imu-filter`` and the live config's ``[imu] filter``): ``vqf`` (default) is VQF
+#: (Laidig & Seel 2023, the ``vqf`` package, 6-D, online); ``eskf`` and ``eskf-handheld`` are walkmon's own
+#: error-state filter with its walking defaults and its hand-held preset (kept for comparison).
+IMU_FILTERS = ("vqf", "eskf", "eskf-handheld")
+
+
+@dataclass(frozen=True, slots=True)
+class ImuFilterSettings:
+    """The IMU attitude core: which filter and its knobs.
+
+    ``filter``: one of :data:`IMU_FILTERS`. Default ``vqf``: on all ten shared BROAD trials (real IMU, optical
+    truth; rotation, translation, tapping, vibration) it is never worse than walkmon's own filter with any one
+    setting, which diverged on vigorous combined motion (benchmarks/results/broad.md).
+    ``tau_acc_s`` (vqf): time constant of its accelerometer low-pass in the inertial frame (VQF's 3 s default):
+    longer = less tilt from sustained accelerations (the start and stop of walking), slower to correct gyro
+    errors. ``rest_min_s`` (vqf): how long the sensor must be still before its rest bias estimation starts (VQF's
+    1.5 s). Both defaults are VQF's own: no value was tuned on the benchmark trials.
+    """
+
+    filter: str = "vqf"
+    tau_acc_s: float = 3.0
+    rest_min_s: float = 1.5
+
+    def __post_init__(self) -> None:
+        if self.filter not in IMU_FILTERS:
+            msg = f"unknown IMU filter {self.filter!r}; expected one of {', '.join(IMU_FILTERS)}"
+            raise ConfigError(msg)
+        for name in ("tau_acc_s", "rest_min_s"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and 0 < value <= 100):
+                msg = f"IMU filter setting {name} must be in (0, 100] s, got {value!r}"
+                raise ConfigError(msg)
+
+
+DEFAULT_IMU_FILTER = ImuFilterSettings()
+
+
+class AttitudeCore:
+    """Common face of the IMU attitude cores: ``push(t_s, gyro, accel)`` per sample (in time order, at the
+    nominal rate given at construction); read-only ``rotation_world`` (sensor -> a gravity-aligned world),
+    ``gravity_down`` (unit, sensor frame), ``bias_rad_s``, ``bias_std_rad_s``, ``at_rest``."""
+
+    rotation_world: NDArray[np.float64]
+    gravity_down: NDArray[np.float64]
+    bias_rad_s: NDArray[np.float64]
+    bias_std_rad_s: float
+    at_rest: bool
+
+    def push(self, t_s: float, gyroscope_rad_s: NDArray[np.float64], accelerometer_m_s2: NDArray[np.float64]) -> None:
+        raise NotImplementedError
+
+
+class VqfCore(AttitudeCore):
+    """VQF (6-D: gyroscope + accelerometer, no magnetometer) as the attitude core; needs the ``vqf`` package.
+    VQF takes each gyroscope sample as the mean rate over the sample interval, as real MEMS IMUs report it."""
+
+    def __init__(self, settings: ImuFilterSettings, rate_hz: float) -> None:
+        try:
+            import vqf  # noqa: PLC0415
+        except ImportError as exc:  # pragma: no cover - vqf is a core dependency
+            msg = "the vqf IMU filter needs the vqf package: pip install vqf"
+            raise ConfigError(msg) from exc
+        if not (np.isfinite(rate_hz) and rate_hz > 0):
+            msg = f"IMU rate must be positive, got {rate_hz}"
+            raise InvalidInputError(msg)
+        self._vqf = vqf.VQF(1.0 / float(rate_hz), tauAcc=float(settings.tau_acc_s), restMinT=float(settings.rest_min_s))
+        self.rotation_world = np.eye(3)
+        self.gravity_down = np.array([0.0, 0.0, -1.0])
+        self.bias_rad_s = np.zeros(3)
+        self.bias_std_rad_s = float(np.radians(0.5))
+        self.at_rest = False
+
+    def push(self, t_s: float, gyroscope_rad_s: NDArray[np.float64], accelerometer_m_s2: NDArray[np.float64]) -> None:
+        v = self._vqf
+        v.update(np.ascontiguousarray(gyroscope_rad_s, dtype=float), np.ascontiguousarray(accelerometer_m_s2, dtype=float))
+        R = rotation_from_quaternion_wxyz(v.getQuat6D())
+        self.rotation_world = R
+        self.gravity_down = -R[2, :]  # R^T (0, 0, -1): VQF's world z points up
+        bias, sigma = v.getBiasEstimate()
+        self.bias_rad_s = np.asarray(bias, dtype=float)
+        self.bias_std_rad_s = float(sigma)
+        self.at_rest = bool(v.getRestDetected())
+
+
+class EskfCore(AttitudeCore):
+    """walkmon's own :class:`ImuAttitudeFilter` as the attitude core (``eskf``: walking defaults with gyro
+    samples as instantaneous rates, as the filter shipped before; ``eskf-handheld``: the hand-held preset)."""
+
+    def __init__(self, settings: ImuFilterSettings, rate_hz: float, *, initial_accelerometer_m_s2: ArrayLike | None = None,
+                 initial_bias_rad_s: ArrayLike | None = None, initial_bias_std_rad_s: float | None = None,
+                 initial_tilt_std_deg: float | None = None) -> None:
+        base = HANDHELD_ATTITUDE_SETTINGS if settings.filter == "eskf-handheld" else WALKING_ATTITUDE_SETTINGS
+        self._filter = ImuAttitudeFilter(_with_rate(base, rate_hz))
+        self._filter.reset(initial_accelerometer_m_s2=initial_accelerometer_m_s2, initial_bias_rad_s=initial_bias_rad_s,
+                           initial_bias_std_rad_s=initial_bias_std_rad_s, initial_tilt_std_deg=initial_tilt_std_deg)
+        self.rotation_world = np.eye(3)
+        self.gravity_down = np.array([0.0, 1.0, 0.0])
+        self.bias_rad_s = self._filter.bias_rad_s
+        self.bias_std_rad_s = self._filter.bias_std_rad_s
+        self.at_rest = False
+
+    def push(self, t_s: float, gyroscope_rad_s: NDArray[np.float64], accelerometer_m_s2: NDArray[np.float64]) -> None:
+        f = self._filter
+        f.push(t_s, gyroscope_rad_s, accelerometer_m_s2)
+        self.rotation_world = f.rotation_world
+        down = f.gravity_down
+        if down is not None:
+            self.gravity_down = down
+        self.bias_rad_s = f.bias_rad_s
+        self.bias_std_rad_s = f.bias_std_rad_s
+        self.at_rest = f.at_rest
+
+
+def make_core(settings: ImuFilterSettings, rate_hz: float, **eskf_start: object) -> AttitudeCore:
+    """The attitude core of ``settings.filter`` for an IMU at ``rate_hz``; ``eskf_start`` (the initial state of
+    :meth:`ImuAttitudeFilter.reset`) only seeds walkmon's own filter: VQF starts as VQF does."""
+    if settings.filter == "vqf":
+        return VqfCore(settings, rate_hz)
+    return EskfCore(settings, rate_hz, **eskf_start)  # type: ignore[arg-type]
+
+
+def rotation_from_quaternion_wxyz(q: ArrayLike) -> NDArray[np.float64]:
+    """Rotation matrix of one unit quaternion (w, x, y, z)."""
+    w, x, y, z = (float(v) for v in np.asarray(q, dtype=float).reshape(4))
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def track_attitude(
+    t_s: ArrayLike,
+    gyroscope_rad_s: ArrayLike,
+    accelerometer_m_s2: ArrayLike,
+    settings: ImuFilterSettings = DEFAULT_IMU_FILTER,
+) -> AttitudeTrack:
+    """IMU-only attitude of a recording with the attitude core (default VQF), causal, sample by sample as the
+    live path runs it; angles relative to the first sample. walkmon's own filters start from the recording's
+    still start (:func:`initial_state_from_rest`); VQF starts as VQF does."""
+    t, g, a = _check_imu_arrays(t_s, gyroscope_rad_s, accelerometer_m_s2)
+    rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
+    start: dict[str, object] = {}
+    if settings.filter != "vqf":
+        a0, b0, b0_std, tilt_std = initial_state_from_rest(t, g, a)
+        start = {"initial_accelerometer_m_s2": a0, "initial_bias_rad_s": b0, "initial_bias_std_rad_s": b0_std,
+                 "initial_tilt_std_deg": tilt_std}
+    core = make_core(settings, rate, **start)
+    n = len(t)
+    rotations = np.empty((n, 3, 3))
+    down = np.empty((n, 3))
+    bias = np.empty((n, 3))
+    for i in range(n):
+        core.push(float(t[i]), g[i], a[i])
+        rotations[i], down[i], bias[i] = core.rotation_world, core.gravity_down, core.bias_rad_s
+    rel = np.einsum("ji,njk->nik", rotations[0], rotations)
+    return AttitudeTrack(
+        t_s=t.copy(), angles_deg=angles_deg_from_rotation(rel), rotations=rel, gravity_down=down,
+        abs_angles_deg=gravity_angles_deg_from_gravity(down), gyroscope_bias_rad_s=bias,
+    )
 
 
 # -------------------------------------------------------------------------------------------- offline
