@@ -132,7 +132,7 @@ def choose(rows: list[dict]) -> list[dict]:
 
         def score(name: str, train: list[dict] = train) -> tuple[float, float]:
             ratios = [r["filters"][name]["rmse_deg"] / r["filters"]["vqf online"]["rmse_deg"] for r in train]
-            return (round(max(ratios), 6),  # rounding: a tie with vqf is a tie float(np.mean([r["filters"][name]["rmse_deg"] for r in train])))
+            return (round(max(ratios), 6), float(np.mean([r["filters"][name]["rmse_deg"] for r in train])))
 
         chosen = min(CANDIDATES, key=score)
         folds.append({"held_out": held, "chosen": chosen, "train_worst_ratio_to_vqf": score(chosen)[0],

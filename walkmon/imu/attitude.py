@@ -39,30 +39,30 @@ from walkmon.errors import ConfigError, InvalidInputError
 __all__ = [
     "DEFAULT_ATTITUDE_SETTINGS",
     "DEFAULT_IMU_FILTER",
+    "GYROSCOPE_RULES",
+    "HANDHELD_ATTITUDE_SETTINGS",
     "IMU_FILTERS",
     "WALKING_ATTITUDE_SETTINGS",
     "AttitudeCore",
-    "ErrorStateLayout",
-    "EskfCore",
-    "ImuFilterSettings",
-    "VqfCore",
-    "make_core",
-    "rotation_from_quaternion_wxyz",
-    "track_attitude",
-    "GYROSCOPE_RULES",
-    "HANDHELD_ATTITUDE_SETTINGS",
     "AttitudeEstimate",
     "AttitudeSettings",
     "AttitudeStatus",
     "AttitudeTrack",
+    "ErrorStateLayout",
+    "EskfCore",
     "ImuAttitudeFilter",
+    "ImuFilterSettings",
     "SmoothedAttitude",
     "VisualWindows",
+    "VqfCore",
     "estimate_attitude",
     "exp_so3",
     "initial_state_from_rest",
     "log_so3",
+    "make_core",
+    "rotation_from_quaternion_wxyz",
     "smooth_attitude",
+    "track_attitude",
 ]
 
 _log = logging.getLogger(__name__)
@@ -169,13 +169,11 @@ DEFAULT_ATTITUDE_SETTINGS = AttitudeSettings()
 #: instantaneous rates (the old simulator's), per-sample gravity updates; diverged on vigorous real motion.
 WALKING_ATTITUDE_SETTINGS = AttitudeSettings(gyroscope_rule="trapezoid")
 
-#: For hand-held or general motion (no sustained accelerations) with a real MEMS IMU: gravity from the
-#: accelerometer low-passed over 2 s in the gyro-integrated frame (VQF's idea), a firmer gravity reference
-#: (0.02), a faster-wandering bias (2e-4 rad/s/sqrt(s)), 1 % gyro scale error, and gyro samples taken as
-#: interval means (``gyroscope_rule="backward"``). Chosen on the two BROAD trials, where it beats vqf (online)
-#: and imufusion (benchmarks/results/fusion.md); settings chosen on one trial and measured on the other still
-#: beat both (benchmarks/results/broad-cv.md: 0.390 / 0.995 deg vs vqf 0.429 / 1.023). Worse on walks, where the start of walking and speed changes are sustained forward
-#: accelerations that a 2 s low-pass takes for gravity.
+#: For hand-held or general motion (no sustained accelerations) with a real MEMS IMU (``--imu-filter
+#: eskf-handheld``): gravity from the accelerometer low-passed over 2 s in the gyro-integrated frame (VQF's idea),
+#: a firmer gravity reference (0.02), a faster-wandering bias (2e-4 rad/s/sqrt(s)), 1 % gyro scale error, gyro
+#: samples as interval means. Chosen on BROAD trials 02 and 07; on all ten shared trials it beats VQF on seven
+#: but loses on the fast translations and tapping (benchmarks/results/broad.md), so it is not the default.
 HANDHELD_ATTITUDE_SETTINGS = AttitudeSettings(
     gravity_lowpass_s=2.0,
     gravity_std_lowpass=0.02,
@@ -419,6 +417,11 @@ class ImuAttitudeFilter:
             Q[k:, k:] = np.diag(self.extra_walk_per_sqrt_s**2 * dt)
         P = self.kf.P
         self.kf.P = F @ P @ F.T + Q
+
+    def normalised_innovation(self, residual: NDArray[np.float64], H: NDArray[np.float64], R: NDArray[np.float64]) -> float:
+        """Squared Mahalanobis distance of a residual under the predicted innovation covariance ``H P H^T + R``."""
+        S = H @ self.kf.P @ H.T + R
+        return float(residual @ np.linalg.solve(S, residual))
 
     def update(self, residual: NDArray[np.float64], H: NDArray[np.float64], R: NDArray[np.float64], gate: float | None = None) -> bool:
         """Kalman update with the error-state residual; inject and reset. Returns False when gated out."""
