@@ -197,8 +197,10 @@ class CameraImuFusion:
         initial_bias_rad_s: ArrayLike | None = None,
         initial_bias_std_rad_s: float | None = None,
         initial_tilt_std_deg: float | None = None,
+        still_start: bool = False,
     ) -> None:
-        """Forget everything; the optional initial values are in the IMU's axes (as the samples are)."""
+        """Forget everything; the optional initial values are in the IMU's axes (as the samples are).
+        ``still_start``: the samples start still (the core's first gravity is good: no warm-up)."""
         a0 = None if initial_accelerometer_m_s2 is None else self._R_ci @ np.asarray(initial_accelerometer_m_s2, float)
         b0 = None if initial_bias_rad_s is None else self._R_ci @ np.asarray(initial_bias_rad_s, float)
         start = {"initial_accelerometer_m_s2": a0, "initial_bias_rad_s": b0,
@@ -214,6 +216,7 @@ class CameraImuFusion:
         self._gravity_std = np.radians(s.core_gravity_std_deg) * np.sqrt(s.imu_filter.tau_acc_s * s.core_gravity_hz)
         self._since_gravity_s = 0.0
         self._core_age_s = 0.0
+        self._core_warmup_s = 0.0 if still_start else s.core_warmup_s
         self._rejected_s = 0.0
         self._last_imu_t: float | None = None
         self._has_reference = False
@@ -250,7 +253,7 @@ class CameraImuFusion:
             f.zero_rate_update(gyro)
         self._since_gravity_s += dt
         self._core_age_s += dt
-        if self._core_age_s < self.settings.core_warmup_s:
+        if self._core_age_s < self._core_warmup_s:
             self._since_gravity_s = 0.0
         elif self._since_gravity_s >= 1.0 / self.settings.core_gravity_hz - 1e-9:
             self._gravity_step(self._since_gravity_s)
@@ -403,7 +406,7 @@ def fuse_recording(
         # starts 0.17 vs 0.28 deg mean pitch error with the still-start weighting)
         settings = replace(settings, visual_std_deg=settings.visual_std_unknown_bias_deg)
     fusion = CameraImuFusion(settings)
-    estimates = _causal_pass(fusion, t, g, a, ft, Rv, ok, (a0, b0, b0_std, tilt_std))
+    estimates = _causal_pass(fusion, t, g, a, ft, Rv, ok, (a0, b0, b0_std, tilt_std, b0 is not None))
     if b0 is None:
         # No still period at the start: the bias is only learnt while moving and the first second's mean
         # acceleration is a poor gravity reference, so the first seconds would keep both errors. Offline we can
@@ -412,7 +415,7 @@ def fuse_recording(
         # the first pass's orientations (walking accelerations average out over the recording).
         final_std = fusion.bias_std_rad_s
         start = (_mean_gravity_first_frame(estimates, t, a, ft, settings), np.asarray(estimates[-1].gyroscope_bias_rad_s),
-                 max(final_std, 1e-4), 0.5)
+                 max(final_std, 1e-4), 0.5, False)
         estimates = _causal_pass(fusion, t, g, a, ft, Rv, ok, start)
         _log.info("no still start: second pass from the first pass's bias (std %.4f deg/s)", np.degrees(final_std))
     return FusionTrack(
@@ -460,11 +463,11 @@ def _causal_pass(
     fusion: CameraImuFusion, t: NDArray[np.float64], g: NDArray[np.float64], a: NDArray[np.float64],
     ft: NDArray[np.float64], Rv: NDArray[np.float64], ok: NDArray[np.bool_], start: tuple,
 ) -> list[FusedEstimate]:
-    """One causal pass of ``fusion`` over the recording from ``start`` = (accel, bias, bias std, tilt std):
+    """One causal pass of ``fusion`` over the recording from ``start`` = (accel, bias, bias std, tilt std, still):
     every IMU sample up to a frame's time, then the frame."""
-    accel0, bias, bias_std, tilt = start
+    accel0, bias, bias_std, tilt, still = start
     fusion.reset(initial_accelerometer_m_s2=accel0, initial_bias_rad_s=bias, initial_bias_std_rad_s=bias_std,
-                 initial_tilt_std_deg=tilt)
+                 initial_tilt_std_deg=tilt, still_start=still)
     t_video = t + fusion.settings.time_offset_s
     estimates = []
     i = 0
@@ -739,7 +742,7 @@ class LiveFusion:
             s = replace(s, attitude=replace(s.attitude, rate_hz_nominal=float(self._rate_hz)))
         fusion = CameraImuFusion(s)
         fusion.reset(initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0, initial_bias_std_rad_s=b0_std,
-                     initial_tilt_std_deg=tilt)
+                     initial_tilt_std_deg=tilt, still_start=not restart and b0 is not None)
         for tv, gk, ak in samples:
             fusion.push_imu(tv - s.time_offset_s, gk, ak)
         self._fusion = fusion
