@@ -8,7 +8,7 @@ Orientation Estimation", Data 6(7):72, CC BY 4.0; real IMU with optical motion-c
 gyroscope and accelerometer (no magnetometer):
 
 * walkmon's default IMU attitude (``ImuFilterSettings()``, what ``walkmon analyze --imu``, the offline fusion and
-  ``walkmon live`` with an IMU all use), sample by sample through :func:`walkmon.imu_attitude.track_attitude`;
+  ``walkmon live`` with an IMU all use), sample by sample through :func:`walkmon.imu.attitude.track_attitude`;
 * VQF online (``vqf.VQF(Ts).updateBatch``, 6-D, default parameters) and imufusion (Fusion AHRS, defaults);
 * walkmon's own ESKF with its old walking default and its hand-held preset (``--imu-filter eskf`` /
   ``eskf-handheld``), for reference;
@@ -42,8 +42,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_fusion import BROAD_DEFAULT, inclination_deg, load_broad  # noqa: E402
 
-from walkmon.imu_analysis import rotation_matrices_from_quaternions_wxyz  # noqa: E402
-from walkmon.imu_attitude import DEFAULT_IMU_FILTER, ImuFilterSettings, track_attitude  # noqa: E402
+from walkmon.imu.attitude import DEFAULT_IMU_FILTER, ImuFilterSettings, track_attitude  # noqa: E402
+from walkmon.imu.recordings import rotation_matrices_from_quaternions_wxyz  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 DIVERGENCE_DEG, DIVERGENCE_S = 5.0, 1.0

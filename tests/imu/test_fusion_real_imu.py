@@ -12,7 +12,6 @@ import pytest
 from walkmon.consts import angles_deg_from_rotation
 from walkmon.errors import ConfigError
 from walkmon.imu.attitude import (
-    DEFAULT_ATTITUDE_SETTINGS,
     HANDHELD_ATTITUDE_SETTINGS,
     WALKING_ATTITUDE_SETTINGS,
     AttitudeSettings,
@@ -172,8 +171,8 @@ def test_default_core_holds_on_real_fast_rotations(broad_trial_7: Path) -> None:
     """The default IMU attitude (VQF core) on BROAD trial 7's first 45 s: inclination RMSE below 1.5 deg and
     never above 5 deg for more than 1 s (the divergence criterion of benchmarks/bench_broad.py)."""
     h5py = pytest.importorskip("h5py")
-    from walkmon.imu_analysis import rotation_matrices_from_quaternions_wxyz
-    from walkmon.imu_attitude import track_attitude
+    from walkmon.imu.attitude import track_attitude
+    from walkmon.imu.recordings import rotation_matrices_from_quaternions_wxyz
 
     with h5py.File(broad_trial_7, "r") as f:
         rate = float(f.attrs["sampling_rate"])

@@ -25,8 +25,8 @@ from walkmon.consts import (
     rotation_from_angles_deg,
 )
 from walkmon.errors import ConfigError, SourceDisconnected
-from walkmon.imu.fusion import FusionSettings, LiveFusion, LiveFusionSettings
 from walkmon.imu.attitude import ImuFilterSettings
+from walkmon.imu.fusion import FusionSettings, LiveFusion, LiveFusionSettings
 
 WALK, SEED, W, H = "normal:6", 0, 320, 240
 

@@ -59,12 +59,18 @@ def status_line(h: Any) -> str:
 
 def live_fusion_settings(imu: Any) -> Any:
     """:class:`walkmon.imu.fusion.LiveFusionSettings` from the config's ``[imu]`` section."""
-    from walkmon.imu.fusion import FusionSettings, LiveFusionSettings  # noqa: PLC0415
     from walkmon.imu.attitude import ImuFilterSettings  # noqa: PLC0415
+    from walkmon.imu.fusion import FusionSettings, LiveFusionSettings  # noqa: PLC0415
 
     core = ImuFilterSettings(filter=imu.filter, tau_acc_s=imu.tau_acc_s, rest_min_s=imu.rest_min_s)
+    calib = None
+    if imu.calibration:
+        from walkmon.commands.imu_args import read_accelerometer_calibration  # noqa: PLC0415
+
+        calib = read_accelerometer_calibration(imu.calibration)
     return LiveFusionSettings(
-        fusion=FusionSettings(camera_from_imu=imu.camera_from_imu, time_offset_s=imu.time_offset_s, imu_filter=core),
+        fusion=FusionSettings(camera_from_imu=imu.camera_from_imu, time_offset_s=imu.time_offset_s, imu_filter=core,
+                              accelerometer_calibration=calib),
         warmup_s=imu.warmup_s, max_gap_s=imu.max_gap_s, max_lag_s=imu.max_lag_s)
 
 

@@ -46,6 +46,7 @@ from walkmon.imu.attitude import (
     smooth_attitude,
     track_attitude,
 )
+from walkmon.imu.calibration import AccelerometerCalibration
 
 __all__ = [
     "DEFAULT_FUSION_SETTINGS",
@@ -99,6 +100,8 @@ class FusionSettings:
     windows of ``smoother_window_s`` with std ``visual_window_std_deg``.
     ``camera_from_imu``: rotation taking IMU axes to camera axes (row-major 3x3; identity when the IMU is the
     camera's, as in the simulator). ``time_offset_s``: added to IMU timestamps to put them on the video clock.
+    ``accelerometer_calibration``: the accelerometer's bias and scale (``walkmon calibrate-imu``), removed from
+    every sample as it enters :func:`fuse_recording` or :class:`LiveFusion`; None: samples taken as they are.
     """
 
     attitude: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS
@@ -120,6 +123,7 @@ class FusionSettings:
     visual_roll_std_factor: float = 2.0
     smoother_window_s: float = 1.0
     visual_std_unknown_bias_deg: float = 0.02
+    accelerometer_calibration: AccelerometerCalibration | None = None
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.visual_std_deg) and self.visual_std_deg > 0):
@@ -394,6 +398,8 @@ def fuse_recording(
     estimate (angles 0).
     """
     t, g, a, ft, Rv, ok = _recording_arrays(imu_t_s, gyroscope_rad_s, accelerometer_m_s2, frame_t_s, visual_rotations, visual_ok)
+    if settings.accelerometer_calibration is not None:
+        a = settings.accelerometer_calibration.correct(a)
     rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
     settings = replace(settings, attitude=replace(settings.attitude, rate_hz_nominal=float(rate)))
     if Rv is None:
@@ -674,6 +680,8 @@ class LiveFusion:
         if g.shape != (3,) or a.shape != (3,) or not (np.all(np.isfinite(g)) and np.all(np.isfinite(a))):
             self.n_imu_dropped += 1
             return
+        if self.settings.fusion.accelerometer_calibration is not None:
+            a = self.settings.fusion.accelerometer_calibration.correct(a)
         self._last_imu_t = tv
         if len(self._pending) >= self.settings.max_pending:
             self._pending.popleft()

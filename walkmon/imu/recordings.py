@@ -18,12 +18,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from walkmon.consts import (
-    angles_deg_from_rotation,
-    gravity_angles_deg_from_gravity,
     rotation_from_angles_deg,
 )
 from walkmon.errors import ConfigError, InvalidInputError
-from walkmon.imu.attitude import IMU_FILTERS, ImuFilterSettings
+from walkmon.imu.attitude import IMU_FILTERS
 from walkmon.imu.extrinsics import ExtrinsicsEstimate, estimate_extrinsics
 from walkmon.imu.fusion import (
     DEFAULT_FUSION_SETTINGS,

@@ -66,13 +66,15 @@ class ImuSettings:
     IMU sample by more than this is camera-only (the live loop waits up to ``max_gap_s`` for an IMU that is
     slightly behind before giving up on a frame). ``filter``: the IMU attitude core under the fusion, the same
     names and meaning as ``walkmon analyze --imu-filter`` (``vqf``, default; ``eskf``, ``eskf-handheld``), with its
-    knobs ``tau_acc_s`` / ``rest_min_s`` (:class:`walkmon.imu.attitude.ImuFilterSettings`).
+    knobs ``tau_acc_s`` / ``rest_min_s`` (:class:`walkmon.imu.attitude.ImuFilterSettings`). ``calibration``: an
+    accelerometer calibration file of ``walkmon calibrate-imu`` (as ``analyze --imu-calib``); empty: none.
     """
 
     url: str = ""
     filter: str = "vqf"
     tau_acc_s: float = 3.0
     rest_min_s: float = 1.5
+    calibration: str = ""
     time_offset_s: float = 0.0
     extrinsics: tuple[float, ...] = ()
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)

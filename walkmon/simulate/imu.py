@@ -23,13 +23,13 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from walkmon.consts import GRAVITY_MS2
 from walkmon.errors import ConfigError
 from walkmon.simulate.gait import GaitModel
 
-__all__ = ["DEFAULT_IMU_SETTINGS", "IMU_MODEL_VERSION", "ImuSamples", "ImuSettings", "simulate_imu"]
+__all__ = ["DEFAULT_IMU_SETTINGS", "IMU_MODEL_VERSION", "ImuSamples", "ImuSettings", "simulate_imu", "simulate_static_poses"]
 
 
 #: Version of the IMU error model: part of the simulator's parameters, so benchmark caches keyed on it are
@@ -192,3 +192,65 @@ def simulate_imu(model: GaitModel, settings: ImuSettings = DEFAULT_IMU_SETTINGS,
     gyro = rate @ Mg.T + bias_track + vib_g + gyro_noise
     accel = force @ Ma.T + accel_bias + vib_a + accel_noise
     return ImuSamples(t, gyro, accel, gyro_bias, accel_bias, bias_track, Mg, Ma)
+
+
+def simulate_static_poses(
+    rotations: ArrayLike,
+    settings: ImuSettings = DEFAULT_IMU_SETTINGS,
+    *,
+    seed: int = 0,
+    hold_s: float = 3.0,
+    move_s: float = 1.5,
+    accelerometer_matrix: ArrayLike | None = None,
+    accelerometer_bias_mps2: ArrayLike | None = None,
+) -> ImuSamples:
+    """An IMU put down still in each orientation of ``rotations`` (K,3,3; sensor -> world, world y down) for
+    ``hold_s``, turned between them about one axis over ``move_s`` (the accelerometer calibration's recording).
+    The accelerometer's bias and scale/misalignment matrix are drawn as in :func:`simulate_imu` unless given
+    (e.g. a simulated walk's, to calibrate that walk's sensor); gyro bias, noise as there; no vibration."""
+    R = np.asarray(rotations, dtype=float).reshape(-1, 3, 3)
+    rng = np.random.default_rng([seed, 0x1A5])
+    dt = 1.0 / settings.rate_hz
+    Ma = (_error_matrix(rng, settings.accelerometer_scale_std, settings.accelerometer_misalignment_std_rad)
+          if accelerometer_matrix is None else np.asarray(accelerometer_matrix, dtype=float))
+    ba = rng.normal(0.0, settings.accelerometer_bias_mps2, 3) if accelerometer_bias_mps2 is None \
+        else np.asarray(accelerometer_bias_mps2, dtype=float)
+    sign = rng.choice([-1.0, 1.0], size=3)
+    bg = np.radians(sign * rng.uniform(settings.gyroscope_bias_min_dps, settings.gyroscope_bias_max_dps, 3))
+    rot, rate = [], []
+    for k in range(len(R)):
+        n_hold = int(round(hold_s / dt))
+        rot += [R[k]] * n_hold
+        rate += [np.zeros(3)] * n_hold
+        if k + 1 < len(R):
+            v = _log_so3(R[k].T @ R[k + 1])  # body-frame rotation vector to the next pose
+            n_move = max(1, int(round(move_s / dt)))
+            for j in range(1, n_move + 1):
+                rot.append(R[k] @ _exp_so3(v * j / n_move))
+                rate.append(v / move_s)
+    rot_arr, rate_arr = np.array(rot), np.array(rate)
+    n = len(rot_arr)
+    force = np.einsum("nji,j->ni", rot_arr, [0.0, -GRAVITY_MS2, 0.0])  # R^T (0 - g_world)
+    gyro = rate_arr + bg + rng.normal(0.0, np.radians(settings.gyroscope_noise_dps), (n, 3))
+    accel = force @ Ma.T + ba + rng.normal(0.0, settings.accelerometer_noise_mps2, (n, 3))
+    return ImuSamples(np.arange(n) * dt, gyro, accel, bg, ba, None, None, Ma)
+
+
+def _exp_so3(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    th = float(np.linalg.norm(v))
+    K = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    if th < 1e-12:
+        return np.eye(3) + K
+    return np.eye(3) + np.sin(th) / th * K + (1.0 - np.cos(th)) / th**2 * (K @ K)
+
+
+def _log_so3(R: NDArray[np.float64]) -> NDArray[np.float64]:
+    c = np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)
+    th = float(np.arccos(c))
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if th < 1e-9:
+        return 0.5 * w
+    if np.pi - th < 1e-6:  # half turn: rotate about an axis from the symmetric part
+        axis = np.sqrt(np.clip((np.diag(R) + 1.0) / 2.0, 0.0, None))
+        return th * axis / np.linalg.norm(axis)
+    return th / (2.0 * np.sin(th)) * w
