@@ -27,6 +27,7 @@ from walkmon.consts import (
 from walkmon.errors import ConfigError, SourceDisconnected
 from walkmon.imu.attitude import ImuFilterSettings
 from walkmon.imu.fusion import FusionSettings, LiveFusion, LiveFusionSettings
+from walkmon.live.config import ImuSettings, config_from_dict
 
 WALK, SEED, W, H = "normal:6", 0, 320, 240
 
@@ -78,7 +79,7 @@ def test_live_fused_angles_match_the_offline_fusion_of_the_same_walk(live_vs_off
 
 def test_imu_filter_in_the_live_config_is_the_analyze_option(live_vs_offline: dict) -> None:
     """``[imu] filter = "eskf"`` in the live config and ``analyze --imu-filter eskf`` give the same angles on the same
-    recording; and the key is not ignored: the gravity-referenced angles differ from the default core's."""
+    recording, and the key reaches the live fusion."""
     root, sim = live_vs_offline["root"], live_vs_offline["sim"]
     cfg = root / "eskf.toml"
     cfg.write_text('[imu]\nfilter = "eskf"\n', encoding="utf-8")
