@@ -958,35 +958,38 @@ def smooth_attitude(
         initial_bias_std_rad_s=initial_bias_std_rad_s,
         initial_tilt_std_deg=initial_tilt_std_deg,
     )
-    n = len(t)
-    Rf = np.empty((n, 3, 3))
-    bf = np.empty((n, 3))
-    Rpred = np.empty((n, 3, 3))
-    gains = np.zeros((n, 6, 6))
-    # visual bookkeeping: gyro-only chain G (bias-corrected, no gravity corrections) and its bias Jacobian J
-    G, J = np.eye(3), np.zeros((3, 3))
-    n_frames = 0 if visual is None else len(visual.t_s)
-    used = np.zeros(n_frames, bool)
-    rejected = np.zeros(n_frames, bool)
-    if visual is not None:
-        rejected |= ~np.asarray(visual.ok, bool)
-    anchor: tuple[int, NDArray[np.float64], NDArray[np.float64]] | None = None
-    frame = 0
-    if visual is not None:
-        while frame < n_frames and visual.t_s[frame] < t[0]:
-            frame += 1
-    sg2 = settings.gyroscope_noise_rad_s_sqrt_hz**2
     # rates[i]: the rate over (t_i, t_i+1] as the filter integrates it (last one: extrapolation)
     if settings.gyroscope_rule == "backward":
         rates = np.vstack([g[1:], g[-1:]])
     else:
         rates = np.vstack([0.5 * (g[:-1] + g[1:]), g[-1:]])
+    windows = _VisualWindowUpdates(visual, t[0], settings.gyroscope_noise_rad_s_sqrt_hz**2)
+    Rf, bf, Rpred, gains = _forward_pass(filt, t, g, a, rates, windows)
+    bias_std = filt.bias_std_rad_s
+    Rs, bs = _rts_backward(Rf, bf, Rpred, gains)
+    down = filt.down_world if filt.down_world is not None else np.array([0.0, 1.0, 0.0])
+    return SmoothedAttitude(
+        t_s=t, rotations_world=Rs, bias_rad_s=bs, interval_rates_rad_s=rates, down_world=np.asarray(down, float),
+        visual_used=windows.used, visual_rejected=windows.rejected & ~windows.used, bias_std_rad_s=bias_std,
+    )
+
+
+def _forward_pass(
+    filt: ImuAttitudeFilter, t: NDArray[np.float64], g: NDArray[np.float64], a: NDArray[np.float64],
+    rates: NDArray[np.float64], windows: _VisualWindowUpdates,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The forward filter over the recording, keeping what the backward pass needs: filtered orientations and
+    biases, predicted orientations and the RTS gains ``P_k F^T P_pred(k+1)^-1`` on the 6-D error state."""
+    n = len(t)
+    Rf = np.empty((n, 3, 3))
+    bf = np.empty((n, 3))
+    Rpred = np.empty((n, 3, 3))
+    gains = np.zeros((n, 6, 6))
     for i in range(n):
         if i > 0:
             P_prev = filt.kf.P.copy()
-            b_prev = filt.bias.copy()
             dt = t[i] - t[i - 1]
-            dR = exp_so3((rates[i - 1] - b_prev) * dt)
+            dR = exp_so3((rates[i - 1] - filt.bias) * dt)
             status = filt.advance_to(t[i], g[i])
             F = np.eye(6)
             F[0:3, 0:3] = dR.T
@@ -997,61 +1000,88 @@ def smooth_attitude(
             except np.linalg.LinAlgError:
                 gains[i - 1] = (np.linalg.pinv(P_pred) @ F @ P_prev).T
             Rpred[i] = filt.rotation_world
-            G = G @ dR
-            J = dR.T @ J - np.eye(3) * dt
+            windows.advance(dR, dt)
         else:
             status = filt.advance_to(t[0], g[0])
         if status is None or filt.down_world is None:
             filt.correct(g[i], a[i])
-        # visual frames in [t_i, t_i+1)
-        t_next = t[i + 1] if i + 1 < n else np.inf
-        while visual is not None and frame < n_frames and visual.t_s[frame] < t_next:
-            if not visual.ok[frame]:
-                anchor = None
-                frame += 1
-                continue
-            tau = float(visual.t_s[frame] - t[i])
-            rate = rates[i] - filt.bias
-            dRt = exp_so3(rate * tau)
-            Gf, Jf = G @ dRt, dRt.T @ J - np.eye(3) * tau
-            V = visual.rotations[frame]
-            if anchor is None:
-                anchor = (frame, Gf, Jf)
-            elif visual.t_s[frame] - visual.t_s[anchor[0]] >= visual.baseline_s:
-                k0, Ga, Ja = anchor
-                D = Ga.T @ Gf
-                r = log_so3(D.T @ (visual.rotations[k0].T @ V))
-                H = np.zeros((3, 6))
-                H[:, 3:6] = Jf - D.T @ Ja
-                window_s = float(visual.t_s[frame] - visual.t_s[k0])
-                var = np.radians(visual.std_deg) ** 2 + sg2 * window_s
-                ok_window = np.degrees(np.linalg.norm(r)) <= visual.outlier_deg
-                if ok_window:
-                    Rm = np.eye(3) * var
-                    S = H @ filt.kf.P @ H.T + Rm
-                    d2 = float(r @ np.linalg.solve(S, r))
-                    if d2 > visual.gate:
-                        Rm = Rm * (d2 / visual.gate)
-                    filt.update(r, H, Rm)
-                    used[k0 : frame + 1] = True
-                else:
-                    rejected[k0 + 1 : frame + 1] = True
-                # re-anchor on the gyro chain as it stands after the update (the bias moved)
-                anchor = (frame, Gf, Jf)
-            frame += 1
+        windows.consume(filt, float(t[i]), t[i + 1] if i + 1 < n else np.inf, rates[i])
         Rf[i] = filt.rotation_world
         bf[i] = filt.bias
-    bias_std = float(np.sqrt(np.max(np.diag(filt.kf.P)[3:6])))
-    # Rauch-Tung-Striebel backward pass on the error state about the forward trajectory
+    return Rf, bf, Rpred, gains
+
+
+def _rts_backward(
+    Rf: NDArray[np.float64], bf: NDArray[np.float64], Rpred: NDArray[np.float64], gains: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Rauch-Tung-Striebel backward pass on the error state about the forward trajectory."""
     Rs = Rf.copy()
     bs = bf.copy()
-    for k in range(n - 2, -1, -1):
+    for k in range(len(Rf) - 2, -1, -1):
         d = np.concatenate([log_so3(Rpred[k + 1].T @ Rs[k + 1]), bs[k + 1] - bf[k]])
         dx = gains[k] @ d
         Rs[k] = Rf[k] @ exp_so3(dx[0:3])
         bs[k] = bf[k] + dx[3:6]
-    down = filt.down_world if filt.down_world is not None else np.array([0.0, 1.0, 0.0])
-    return SmoothedAttitude(
-        t_s=t, rotations_world=Rs, bias_rad_s=bs, interval_rates_rad_s=rates, down_world=np.asarray(down, float),
-        visual_used=used, visual_rejected=rejected & ~used, bias_std_rad_s=bias_std,
-    )
+    return Rs, bs
+
+
+class _VisualWindowUpdates:
+    """The visual bias windows of :func:`smooth_attitude`: a gyro-only chain ``G`` (bias-corrected, no gravity
+    corrections) and its bias Jacobian ``J``; the rotation between two good frames ``baseline_s`` apart,
+    compared with the chain over the same window, measures the bias. ``used`` / ``rejected`` per frame."""
+
+    def __init__(self, visual: VisualWindows | None, t0_s: float, gyro_var: float) -> None:
+        self.visual = visual
+        self.G, self.J = np.eye(3), np.zeros((3, 3))
+        n_frames = 0 if visual is None else len(visual.t_s)
+        self.used = np.zeros(n_frames, bool)
+        self.rejected = np.zeros(n_frames, bool)
+        if visual is not None:
+            self.rejected |= ~np.asarray(visual.ok, bool)
+        self.anchor: tuple[int, NDArray[np.float64], NDArray[np.float64]] | None = None
+        self.frame = 0
+        self.gyro_var = gyro_var
+        while visual is not None and self.frame < n_frames and visual.t_s[self.frame] < t0_s:
+            self.frame += 1
+
+    def advance(self, dR: NDArray[np.float64], dt: float) -> None:
+        self.G = self.G @ dR
+        self.J = dR.T @ self.J - np.eye(3) * dt
+
+    def consume(self, filt: ImuAttitudeFilter, t_i: float, t_next: float, rate_i: NDArray[np.float64]) -> None:
+        """Visual frames in ``[t_i, t_next)``: anchor, or close a window and update the filter's bias."""
+        v = self.visual
+        while v is not None and self.frame < len(v.t_s) and v.t_s[self.frame] < t_next:
+            frame = self.frame
+            self.frame += 1
+            if not v.ok[frame]:
+                self.anchor = None
+                continue
+            tau = float(v.t_s[frame] - t_i)
+            dRt = exp_so3((rate_i - filt.bias) * tau)
+            Gf, Jf = self.G @ dRt, dRt.T @ self.J - np.eye(3) * tau
+            if self.anchor is None:
+                self.anchor = (frame, Gf, Jf)
+            elif v.t_s[frame] - v.t_s[self.anchor[0]] >= v.baseline_s:
+                self._window_update(filt, frame, Gf, Jf)
+                # re-anchor on the gyro chain as it stands after the update (the bias moved)
+                self.anchor = (frame, Gf, Jf)
+
+    def _window_update(self, filt: ImuAttitudeFilter, frame: int, Gf: NDArray[np.float64], Jf: NDArray[np.float64]) -> None:
+        v = self.visual
+        assert v is not None and self.anchor is not None
+        k0, Ga, Ja = self.anchor
+        D = Ga.T @ Gf
+        r = log_so3(D.T @ (v.rotations[k0].T @ v.rotations[frame]))
+        H = np.zeros((3, 6))
+        H[:, 3:6] = Jf - D.T @ Ja
+        window_s = float(v.t_s[frame] - v.t_s[k0])
+        if np.degrees(np.linalg.norm(r)) > v.outlier_deg:
+            self.rejected[k0 + 1 : frame + 1] = True
+            return
+        Rm = np.eye(3) * (np.radians(v.std_deg) ** 2 + self.gyro_var * window_s)
+        d2 = filt.normalised_innovation(r, H, Rm)
+        if d2 > v.gate:
+            Rm = Rm * (d2 / v.gate)
+        filt.update(r, H, Rm)
+        self.used[k0 : frame + 1] = True
