@@ -232,3 +232,31 @@ def test_extrinsics_flag_single_axis_rotation() -> None:
     est = estimate_extrinsics(t, gyro, ft, R)
     assert not est.well_conditioned
     assert est.axis_excitation < 0.1
+
+
+def test_gravity_rejected_for_long_resets_the_tilt_and_is_counted(walk) -> None:  # noqa: ANN001
+    """A filter started confidently 40 deg off (a wrong initial gravity): the core's gravity is gated out as an
+    outlier, and after ``gravity_reset_s`` of rejection the tilt is reset to it, counted; the error then stays
+    within the core's own error (it never diverges for good). Without the reset it stays tens of degrees off."""
+    imu, ft, R = walk["imu"], walk["ft"], walk["R"]
+    truth_abs = gravity_angles_deg_from_gravity(np.einsum("nji,j->ni", R, [0.0, 1.0, 0.0]))
+    wrong = exp_so3(np.radians([40.0, 0.0, 0.0])) @ imu.accelerometer_mps2[:200].mean(axis=0)
+    results = {}
+    for reset_s in (3.0, 1000.0):
+        fusion = CameraImuFusion(FusionSettings(gravity_reset_s=reset_s))
+        fusion.reset(initial_accelerometer_m_s2=wrong, initial_bias_rad_s=imu.gyroscope_bias_rps, initial_bias_std_rad_s=1e-4,
+                     initial_tilt_std_deg=0.1, still_start=True)
+        i, out = 0, []
+        for tk in ft:
+            while i < len(imu.t_s) and imu.t_s[i] <= tk:
+                fusion.push_imu(imu.t_s[i], imu.gyroscope_rps[i], imu.accelerometer_mps2[i])
+                i += 1
+            out.append(fusion.push_frame(tk).abs_angles_deg)
+        results[reset_s] = (np.abs(np.array(out) - truth_abs), fusion.gravity_resets, fusion.gravity_rejected)
+    err, resets, rejected = results[3.0]
+    assert resets >= 1 and rejected >= 25
+    late = ft > 4.0  # after the reset: as good as the core (VQF, 1.5-2.5 deg off while walking starts here)
+    assert err[late].max() < 3.5, err[late].max(axis=0)
+    assert err[ft > 7.0].max() < 2.5, err[ft > 7.0].max(axis=0)
+    never, no_resets, _ = results[1000.0]
+    assert no_resets == 0 and never[late].max() > 20.0

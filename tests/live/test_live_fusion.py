@@ -124,7 +124,7 @@ def test_live_session_records_the_fusion_counters(live_vs_offline: dict) -> None
     fusion = meta["fusion"]
     assert fusion["frames_fused"] + sum(fusion["frames_camera_only"].values()) == 300
     assert fusion["frames_camera_only"]["warmup"] == 300 - fusion["frames_fused"]
-    assert fusion["filter_restarts"] == 0 and fusion["imu_dropped"] == 0
+    assert fusion["filter_restarts"] == 0 and fusion["imu_dropped"] == 0 and fusion["gravity_resets"] == 0
     conn = sqlite3.connect(str(root / "db" / "walkmon.sqlite"))
     try:
         hop_json = [json.loads(r[0]) for r in conn.execute("SELECT json FROM hops ORDER BY t_s")]

@@ -254,5 +254,6 @@ def _run(args: argparse.Namespace) -> int:
         cam = res.fusion["frames_camera_only"]
         sys.stdout.write(f"IMU fusion: {res.fusion['frames_fused']} frames fused, camera-only: {cam['no_imu']} before "
                          f"any IMU sample, {cam['warmup']} in the IMU warm-up, {cam['imu_gap']} in IMU gaps; "
-                         f"{res.fusion['filter_restarts']} filter restarts, {res.imu_samples} IMU samples\n")
+                         f"{res.fusion['filter_restarts']} filter restarts, {res.fusion.get('gravity_resets', 0)} gravity resets, "
+                         f"{res.imu_samples} IMU samples\n")
     return 0

@@ -644,6 +644,7 @@ class LiveFusion:
         self._pending: collections.deque[tuple[float, NDArray[np.float64], NDArray[np.float64]]] = collections.deque()
         self._warmup: list[tuple[float, NDArray[np.float64], NDArray[np.float64]]] = []
         self._fusion: CameraImuFusion | None = None
+        self._gravity_resets_before = 0  # of the filters before a restart
         self._rate_hz: float | None = None
         self._needs_restart = False
         self._last_imu_t: float | None = None  # video clock, last sample accepted
@@ -663,9 +664,11 @@ class LiveFusion:
 
     def counters(self) -> dict[str, object]:
         """Counts for the status line / hop JSON: fused and camera-only frames (by reason), filter restarts,
-        IMU samples used and dropped."""
+        IMU samples used and dropped, tilt resets to the core's gravity after a long rejection."""
+        resets = self._gravity_resets_before + (self._fusion.gravity_resets if self._fusion is not None else 0)
         return {"frames_fused": self.n_fused, "frames_camera_only": dict(self.n_camera_only),
-                "filter_restarts": self.n_restarts, "imu_samples": self.n_imu, "imu_dropped": self.n_imu_dropped}
+                "filter_restarts": self.n_restarts, "imu_samples": self.n_imu, "imu_dropped": self.n_imu_dropped,
+                "gravity_resets": resets}
 
     # -- input ------------------------------------------------------------------------------------------
     def push_imu(self, t_s: float, gyroscope_rad_s: ArrayLike | None, accelerometer_m_s2: ArrayLike) -> None:
@@ -748,6 +751,8 @@ class LiveFusion:
             _log.info("IMU warm-up done (%d samples): fusion starts at t=%.3f s", len(t), t[-1])
         if self._rate_hz is not None:  # the IMU rate measured in the warm-up (a restart keeps it)
             s = replace(s, attitude=replace(s.attitude, rate_hz_nominal=float(self._rate_hz)))
+        if self._fusion is not None:
+            self._gravity_resets_before += self._fusion.gravity_resets
         fusion = CameraImuFusion(s)
         fusion.reset(initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0, initial_bias_std_rad_s=b0_std,
                      initial_tilt_std_deg=tilt, still_start=not restart and b0 is not None)
