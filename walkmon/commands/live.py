@@ -65,7 +65,7 @@ def live_fusion_settings(imu: Any) -> Any:
     core = ImuFilterSettings(filter=imu.filter, tau_acc_s=imu.tau_acc_s, rest_min_s=imu.rest_min_s)
     calib = None
     if imu.calibration:
-        from walkmon.commands.imu_args import read_accelerometer_calibration  # noqa: PLC0415
+        from walkmon.tables import read_accelerometer_calibration  # noqa: PLC0415
 
         calib = read_accelerometer_calibration(imu.calibration)
     return LiveFusionSettings(

@@ -69,8 +69,11 @@ class AccelerometerCalibration:
                 or np.abs(M - np.eye(3)).max() > 0.2:
             msg = "accelerometer calibration out of range (|bias| <= 5 m/s2, matrix within 0.2 of identity)"
             raise InvalidInputError(msg)
-        return cls(tuple(float(v) for v in bias), tuple(float(v) for v in M.ravel()),  # type: ignore[arg-type]
-                   float(data.get("residual_m_s2", np.nan)), int(data.get("n_poses", 0)), bool(data.get("misalignment", False)))  # type: ignore[call-overload]
+        residual = data.get("residual_m_s2", np.nan)
+        n_poses = data.get("n_poses", 0)
+        return cls((float(bias[0]), float(bias[1]), float(bias[2])), tuple(float(v) for v in M.ravel()),
+                   float(residual) if isinstance(residual, (int, float)) else float("nan"),
+                   int(n_poses) if isinstance(n_poses, int) else 0, bool(data.get("misalignment", False)))
 
 
 def still_poses(
@@ -155,7 +158,7 @@ def calibrate_accelerometer(
 
     fit = least_squares(residuals, np.zeros(9 if misalignment else 6), method="lm")
     M = matrix(fit.x)
-    J = fit.jac
+    J = np.asarray(fit.jac, dtype=float)
     if np.linalg.matrix_rank(J, tol=1e-6 * max(1.0, float(np.abs(J).max()))) < J.shape[1]:
         msg = "the still poses do not determine the calibration (too similar orientations): add more varied ones"
         raise InvalidInputError(msg)

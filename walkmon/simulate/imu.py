@@ -168,7 +168,7 @@ def simulate_imu(model: GaitModel, settings: ImuSettings = DEFAULT_IMU_SETTINGS,
     rng = np.random.default_rng([model.seed if seed is None else seed, 0x1A0])
     n = int(np.floor(model.duration_s * settings.rate_hz + 1e-9))
     dt = 1.0 / settings.rate_hz
-    t = np.arange(n) * dt
+    t: NDArray[np.float64] = np.arange(n, dtype=np.float64) * dt
     sign = rng.choice([-1.0, 1.0], size=3)
     gyro_bias = np.radians(sign * rng.uniform(settings.gyroscope_bias_min_dps, settings.gyroscope_bias_max_dps, 3))
     accel_bias = rng.normal(0.0, settings.accelerometer_bias_mps2, 3)
@@ -233,7 +233,7 @@ def simulate_static_poses(
     force = np.einsum("nji,j->ni", rot_arr, [0.0, -GRAVITY_MS2, 0.0])  # R^T (0 - g_world)
     gyro = rate_arr + bg + rng.normal(0.0, np.radians(settings.gyroscope_noise_dps), (n, 3))
     accel = force @ Ma.T + ba + rng.normal(0.0, settings.accelerometer_noise_mps2, (n, 3))
-    return ImuSamples(np.arange(n) * dt, gyro, accel, bg, ba, None, None, Ma)
+    return ImuSamples(np.arange(n, dtype=np.float64) * dt, gyro, accel, bg, ba, None, None, Ma)
 
 
 def _exp_so3(v: NDArray[np.float64]) -> NDArray[np.float64]:
