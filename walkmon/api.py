@@ -17,6 +17,7 @@ This module reads and writes files (it is the front door); the packages it calls
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Callable, Mapping, Sequence
@@ -32,6 +33,7 @@ from walkmon.gait.indicators import Indicators, IndicatorSettings, compute_indic
 
 if TYPE_CHECKING:
     from walkmon.drivers.video_file import VideoFile
+    from walkmon.imu.fusion import FusionSettings
     from walkmon.rotation.types import RotationEstimate
 
 __all__ = [
@@ -349,15 +351,28 @@ def _video_rotations(
         return estimate_rotations(frames, estimator, on_frame)
 
 
-def _imu_only_columns(imu_path: str | Path, imu_filter: str, offset_s: float) -> tuple[dict[str, Any], dict[str, Any]]:
-    """IMU-only analysis: the angles.csv columns and imu.json of an imu.csv."""
+def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) -> FusionSettings:
+    """The fusion settings of an analysis: the IMU attitude core, the time offset, the accelerometer calibration."""
+    from walkmon.imu.attitude import ImuFilterSettings  # noqa: PLC0415
     from walkmon.imu.fusion import FusionSettings  # noqa: PLC0415
+    from walkmon.tables import read_accelerometer_calibration  # noqa: PLC0415
+
+    accel = None if calib is None else read_accelerometer_calibration(calib)
+    return FusionSettings(time_offset_s=float(offset_s), imu_filter=ImuFilterSettings(filter=imu_filter),
+                          accelerometer_calibration=accel)
+
+
+def _imu_only_columns(
+    imu_path: str | Path, imu_filter: str, offset_s: float, calib: str | Path | None = None
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """IMU-only analysis: the angles.csv columns and imu.json of an imu.csv."""
     from walkmon.imu.recordings import imu_only_columns  # noqa: PLC0415
     from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
     imu = read_imu_csv(imu_path)
-    cols = imu_only_columns(imu, FusionSettings(time_offset_s=float(offset_s)), imu_filter=imu_filter)
-    info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter, "samples": len(imu.t_s),
+    cols = imu_only_columns(imu, _imu_settings(imu_filter, offset_s, calib))
+    info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter,
+            "accelerometer_calibration": None if calib is None else str(calib), "samples": len(imu.t_s),
             "rate_hz": round(imu.rate_hz, 3), "rows": len(cols["t"]),
             "axes": "IMU's own axes (no camera extrinsics)"}
     return dict(cols), info
@@ -390,12 +405,11 @@ def _imu_coverage(imu_t_s: NDArray[np.float64], offset_s: float, frame_t_s: NDAr
 
 def _fused_columns(
     columns: dict[str, Any], estimates: Sequence[RotationEstimate], imu_path: str | Path, offset_s: float,
-    extrinsics: str,
+    extrinsics: str, imu_filter: str = "vqf", calib: str | Path | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The video's angles.csv columns with pitch/yaw/roll replaced by the angles fused with the IMU, plus
     pitch_abs, roll_abs, visual_used and the video-only angles as pitch_video, ...; and imu.json (mode,
     extrinsics estimate and residual, increments used)."""
-    from walkmon.imu.fusion import FusionSettings  # noqa: PLC0415
     from walkmon.imu.recordings import extrinsics_from_angles, fused_columns  # noqa: PLC0415
     from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
@@ -404,9 +418,10 @@ def _fused_columns(
     ft = t + estimates[0].t_s
     visual = np.column_stack([np.asarray(columns[k], dtype=float) for k in ("pitch", "yaw", "roll")])
     ok = np.array([e.status.is_measured for e in estimates], dtype=bool)
-    settings = FusionSettings(time_offset_s=float(offset_s))
-    info: dict[str, Any] = {"mode": "fused", "imu": str(imu_path), "samples": len(imu.t_s),
-                            "rate_hz": round(imu.rate_hz, 3)}
+    settings = _imu_settings(imu_filter, offset_s, calib)
+    info: dict[str, Any] = {"mode": "fused", "imu": str(imu_path), "imu_filter": imu_filter,
+                            "accelerometer_calibration": None if calib is None else str(calib),
+                            "samples": len(imu.t_s), "rate_hz": round(imu.rate_hz, 3)}
     try:
         ext = extrinsics_from_angles(imu, ft, visual, ok)
         info["extrinsics_estimate"] = ext.to_dict()
@@ -420,7 +435,8 @@ def _fused_columns(
                f"excitation {ext.axis_excitation:.3f}, correlation {ext.correlation:.2f}); walk longer or give none")
         raise InvalidInputError(msg)
     if extrinsics == "estimate" and ext is not None:
-        settings = FusionSettings(camera_from_imu=tuple(ext.camera_from_imu.ravel()), time_offset_s=ext.time_offset_s)
+        settings = dataclasses.replace(settings, camera_from_imu=tuple(ext.camera_from_imu.ravel()),
+                                       time_offset_s=ext.time_offset_s)
         _log.info("using the estimated extrinsics (residual %.2f deg/s)", ext.residual_deg_s)
     info["extrinsics_used"] = {"camera_from_imu": settings.camera_from_imu_matrix.round(6).tolist(),
                                "time_offset_s": settings.time_offset_s}
@@ -433,6 +449,7 @@ def _fused_columns(
     out.update({k: v for k, v in columns.items() if k not in ("t", "pitch", "yaw", "roll")})
     info["visual_increments_used"] = int(track.visual_used.sum())
     info["visual_increments_rejected"] = int(track.frames_rejected)
+    info["gravity_resets"] = int(track.gravity_resets)
     return out, info
 
 
@@ -444,9 +461,10 @@ def analyze(
     method: str = "fast",
     baseline: Any = None,
     mode: str = "walkmon",
-    imu_filter: str = "eskf",
+    imu_filter: str = "vqf",
     imu_offset_s: float = 0.0,
     imu_extrinsics: str = "identity",
+    imu_calib: str | Path | None = None,
     progress: ProgressCallback | None = None,
 ) -> Analysis:
     """Analyse a walk recorded by a chest-worn camera (and/or an IMU): what ``walkmon analyze`` computes.
@@ -456,8 +474,10 @@ def analyze(
     YAML (default: 70 deg HFOV pinhole, scaled to the video); ``method``: ``"fast"`` or ``"paper"``;
     ``baseline``: the same person's normal walk (indicators.json path, its dict, Indicators or an Analysis):
     classify relative to it; ``mode``: ``"walkmon"`` or ``"paper"`` indicator processing; ``imu_filter``:
-    IMU-only attitude filter (``eskf``, ``eskf-handheld``, ``vqf``); ``imu_offset_s``: added to IMU times to
-    put them on the video clock; ``imu_extrinsics``: ``"identity"`` or ``"estimate"`` (from this recording);
+    the IMU attitude core, for IMU-only analysis and under the fusion (``vqf``, default; ``eskf``,
+    ``eskf-handheld``); ``imu_offset_s``: added to IMU times to put them on the video clock; ``imu_extrinsics``:
+    ``"identity"`` or ``"estimate"`` (from this recording); ``imu_calib``: an accelerometer calibration file of
+    ``walkmon calibrate-imu``;
     ``progress(done, total)``: called after every frame. Bad input raises a :class:`~walkmon.errors.WalkmonError`
     with a one-line message.
     """
@@ -479,14 +499,14 @@ def analyze(
         if imu_extrinsics == "estimate":
             msg = "--imu-extrinsics estimate needs a VIDEO (the camera's rotation is what the IMU is aligned to)"
             raise ConfigError(msg)
-        columns, imu_info = _imu_only_columns(imu, imu_filter, imu_offset_s)
+        columns, imu_info = _imu_only_columns(imu, imu_filter, imu_offset_s, imu_calib)
         precision = dict.fromkeys(columns, 4)
         source = f"IMU only: {imu}"
     else:
         estimates = _video_rotations(video, calib, method, progress)
         columns = angle_columns(estimates)
         if imu is not None:  # camera-IMU fusion: fused pitch/yaw/roll, + pitch_abs/roll_abs, *_video kept
-            columns, imu_info = _fused_columns(columns, estimates, imu, imu_offset_s, imu_extrinsics)
+            columns, imu_info = _fused_columns(columns, estimates, imu, imu_offset_s, imu_extrinsics, imu_filter, imu_calib)
         precision = dict(_PRECISION)
         source = str(video)
     return _gait_stage(columns, baseline=baseline, mode=mode, meta={"video": source, "rotation method": method},

@@ -25,9 +25,11 @@ from walkmon.errors import InvalidInputError
 
 if TYPE_CHECKING:
     from walkmon.gait.indicators import Indicators
+    from walkmon.imu.calibration import AccelerometerCalibration
     from walkmon.imu.recordings import ImuRecording
 
-__all__ = ["read_imu_csv", "read_indicators", "read_table", "write_indicators", "write_table"]
+__all__ = ["read_accelerometer_calibration", "read_imu_csv", "read_indicators", "read_table", "write_indicators",
+           "write_table"]
 
 
 def read_table(
@@ -173,6 +175,28 @@ def read_imu_csv(path: str | Path) -> ImuRecording:
 
     f = read_imu_file(path, min_rows=10)
     return ImuRecording(f.t_s, f.gyroscope_rad_s, f.accelerometer_m_s2)
+
+
+def read_accelerometer_calibration(path: str | Path) -> AccelerometerCalibration:
+    """A ``walkmon calibrate-imu`` JSON file; malformed files raise InvalidInputError with one line."""
+    from walkmon.imu.calibration import AccelerometerCalibration  # noqa: PLC0415  (the IMU package does no I/O)
+
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        msg = f"{path}: not a JSON calibration file ({exc.msg}, line {exc.lineno})"
+        raise InvalidInputError(msg) from None
+    except UnicodeDecodeError:
+        msg = f"{path}: not a JSON calibration file (not UTF-8 text)"
+        raise InvalidInputError(msg) from None
+    if not isinstance(data, dict):
+        msg = f"{path}: not an accelerometer calibration (expected a JSON object)"
+        raise InvalidInputError(msg)
+    try:
+        return AccelerometerCalibration.from_dict(data)
+    except InvalidInputError as exc:
+        msg = f"{path}: {exc}"
+        raise InvalidInputError(msg) from None
 
 
 def write_indicators(path: str | Path, indicators: Indicators) -> None:

@@ -12,8 +12,8 @@ import pytest
 from walkmon.consts import angles_deg_from_rotation
 from walkmon.errors import ConfigError
 from walkmon.imu.attitude import (
-    DEFAULT_ATTITUDE_SETTINGS,
     HANDHELD_ATTITUDE_SETTINGS,
+    WALKING_ATTITUDE_SETTINGS,
     AttitudeSettings,
     estimate_attitude,
     exp_so3,
@@ -143,7 +143,8 @@ def test_offline_smoother_fusion_within_targets(walk, rmse) -> None:  # noqa: AN
 def test_handheld_preset_on_real_fast_rotations(broad_trial_7: Path) -> None:
     """BROAD trial 7 (fast hand-held rotations up to ~1400 deg/s, optical truth; Laidig et al. 2021, CC BY 4.0),
     first 45 s: the hand-held preset (interval-mean gyro samples, gravity low-passed in the gyro frame) measured
-    1.32 deg inclination RMSE, as vqf online (1.33); the walking defaults 2.27. Bounds with margin."""
+    1.32 deg inclination RMSE, as vqf online (1.33); the old walking defaults (trapezoid rule) 2.27. Bounds with
+    margin."""
     h5py = pytest.importorskip("h5py")
     from walkmon.imu.recordings import rotation_matrices_from_quaternions_wxyz
 
@@ -161,6 +162,28 @@ def test_handheld_preset_on_real_fast_rotations(broad_trial_7: Path) -> None:
         return float(np.sqrt(np.mean(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))) ** 2)))
 
     handheld = incl_rmse(HANDHELD_ATTITUDE_SETTINGS)
-    walking = incl_rmse(DEFAULT_ATTITUDE_SETTINGS)
+    walking = incl_rmse(WALKING_ATTITUDE_SETTINGS)
     assert handheld < 1.5, handheld
     assert handheld < 0.75 * walking, (handheld, walking)
+
+
+def test_default_core_holds_on_real_fast_rotations(broad_trial_7: Path) -> None:
+    """The default IMU attitude (VQF core) on BROAD trial 7's first 45 s: inclination RMSE below 1.5 deg and
+    never above 5 deg for more than 1 s (the divergence criterion of benchmarks/bench_broad.py)."""
+    h5py = pytest.importorskip("h5py")
+    from walkmon.imu.attitude import track_attitude
+    from walkmon.imu.recordings import rotation_matrices_from_quaternions_wxyz
+
+    with h5py.File(broad_trial_7, "r") as f:
+        rate = float(f.attrs["sampling_rate"])
+        n = int(45 * rate)
+        gyr, acc = np.asarray(f["imu_gyr"][:n]), np.asarray(f["imu_acc"][:n])
+        quat, move = np.asarray(f["opt_quat"][:n]), np.asarray(f["movement"][:n]).astype(bool).reshape(-1)
+    truth = np.all(np.isfinite(quat), axis=1)
+    down_true = -rotation_matrices_from_quaternions_wxyz(np.nan_to_num(quat, nan=1.0))[:, 2, :]
+    down = track_attitude(np.arange(n) / rate, gyr, acc).gravity_down
+    incl = np.degrees(np.arccos(np.clip(np.sum(down * down_true, axis=1), -1.0, 1.0)))
+    assert float(np.sqrt(np.mean(incl[move & truth] ** 2))) < 1.5
+    above = (incl > 5.0) & truth
+    longest = max((len(run) for run in "".join("1" if a else "0" for a in above).split("0")), default=0)
+    assert longest / rate <= 1.0, longest / rate

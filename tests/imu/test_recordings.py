@@ -37,10 +37,11 @@ def test_imu_only_analysis_writes_angles_close_to_truth(session: Path, tmp_path:
     assert np.median(np.diff(cols["t"])) == pytest.approx(0.01, abs=1e-6)  # 200 Hz IMU decimated to 100 Hz
     est = np.column_stack([cols["pitch"], cols["yaw"], cols["roll"]])
     err = np.sqrt(np.mean((est - truth_at(truth, cols["t"])) ** 2, axis=0))
-    assert np.all(err < 0.2), err
+    # the default core (VQF): roll tight; pitch carries its walk-start/stop error, yaw the bias learnt from 0.5 s
+    assert np.all(err < [2.5, 1.5, 0.3]), err
     assert np.abs(cols["pitch_abs"][:50]).max() < 1.0  # the simulated wearer starts upright and level
     info = json.loads((out / "imu.json").read_text())
-    assert info["mode"] == "imu_only" and info["imu_filter"] == "eskf"
+    assert info["mode"] == "imu_only" and info["imu_filter"] == "vqf"
     assert (out / "indicators.json").is_file() and (out / "report.html").is_file()
     html = (out / "report.html").read_text()
     assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
@@ -70,12 +71,15 @@ def test_fused_analysis_adds_gravity_angles_and_keeps_video_angles(session: Path
     assert f"<tr><td>pitch_abs mean [deg]</td><td>{np.mean(cols['pitch_abs'][fused]):.3f}</td></tr>" in html
 
 
-def test_imu_only_with_vqf_filter(session: Path, tmp_path: Path) -> None:
-    pytest.importorskip("vqf")
-    out = tmp_path / "vqf"
-    assert main(["analyze", "--imu", str(session / "imu.csv"), "--imu-filter", "vqf", "--out", str(out)]) == 0
+def test_imu_only_with_walkmons_own_filter(session: Path, tmp_path: Path) -> None:
+    out = tmp_path / "eskf"
+    assert main(["analyze", "--imu", str(session / "imu.csv"), "--imu-filter", "eskf", "--out", str(out)]) == 0
     cols = read_table(out / "angles.csv", ["t", "pitch", "yaw", "roll", "pitch_abs", "roll_abs"])
-    assert np.all(np.isfinite(cols["pitch"]))
+    truth = read_table(session / "truth.csv", ["t", "pitch", "yaw", "roll"])
+    est = np.column_stack([cols["pitch"], cols["yaw"], cols["roll"]])
+    err = np.sqrt(np.mean((est - truth_at(truth, cols["t"])) ** 2, axis=0))
+    assert np.all(err < 0.2), err
+    assert json.loads((out / "imu.json").read_text())["imu_filter"] == "eskf"
 
 
 def test_bad_imu_input_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

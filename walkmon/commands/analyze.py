@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         result = analyze(args.video, imu=args.imu, calib=args.calib, method=args.method, baseline=args.baseline,
                          mode=args.mode, imu_filter=args.imu_filter, imu_offset_s=args.imu_offset_s,
-                         imu_extrinsics=args.imu_extrinsics, progress=progress)
+                         imu_extrinsics=args.imu_extrinsics, imu_calib=args.imu_calib, progress=progress)
     finally:
         progress.close()
     files = result.write(out_dir)

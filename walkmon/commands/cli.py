@@ -25,6 +25,7 @@ _log = logging.getLogger(__name__)
 COMMAND_MODULES = (
     "walkmon.commands.demo",
     "walkmon.commands.calibrate",
+    "walkmon.commands.calibrate_imu",
     "walkmon.commands.simulate",
     "walkmon.commands.analyze",
     "walkmon.commands.indicators",

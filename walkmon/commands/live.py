@@ -58,10 +58,18 @@ def status_line(h: Any) -> str:
 
 def live_fusion_settings(imu: Any) -> Any:
     """:class:`walkmon.imu.fusion.LiveFusionSettings` from the config's ``[imu]`` section."""
+    from walkmon.imu.attitude import ImuFilterSettings  # noqa: PLC0415
     from walkmon.imu.fusion import FusionSettings, LiveFusionSettings  # noqa: PLC0415
 
+    core = ImuFilterSettings(filter=imu.filter, tau_acc_s=imu.tau_acc_s, rest_min_s=imu.rest_min_s)
+    calib = None
+    if imu.calibration:
+        from walkmon.tables import read_accelerometer_calibration  # noqa: PLC0415
+
+        calib = read_accelerometer_calibration(imu.calibration)
     return LiveFusionSettings(
-        fusion=FusionSettings(camera_from_imu=imu.camera_from_imu, time_offset_s=imu.time_offset_s),
+        fusion=FusionSettings(camera_from_imu=imu.camera_from_imu, time_offset_s=imu.time_offset_s, imu_filter=core,
+                              accelerometer_calibration=calib),
         warmup_s=imu.warmup_s, max_gap_s=imu.max_gap_s, max_lag_s=imu.max_lag_s)
 
 
@@ -234,7 +242,8 @@ def _run(args: argparse.Namespace) -> int:
         rejected = res.fusion.get("imu_rejected") or {}
         sys.stdout.write(f"IMU fusion: {res.fusion['frames_fused']} frames fused, camera-only: {cam['no_imu']} before "
                          f"any IMU sample, {cam['warmup']} in the IMU warm-up, {cam['imu_gap']} in IMU gaps; "
-                         f"{res.fusion['filter_restarts']} filter restarts, {res.imu_samples} IMU samples\n")
+                         f"{res.fusion['filter_restarts']} filter restarts, {res.fusion.get('gravity_resets', 0)} gravity resets, "
+                         f"{res.imu_samples} IMU samples\n")
         if rejected:
             sys.stdout.write(f"IMU: {sum(rejected.values())} samples rejected as implausible ("
                              f"{', '.join(f'{k} {v}' for k, v in sorted(rejected.items()))}): not fused\n")

@@ -1,16 +1,21 @@
-"""IMU attitude and camera-IMU fusion: the attitude filter and offline smoother, the fusion (offline and the live
-stage), IMU-to-camera extrinsics, and IMU recordings as angle columns. No I/O: files are read in
+"""IMU attitude and camera-IMU fusion: the attitude cores (VQF, the default, or walkmon's own filter) and offline
+smoother, the fusion (offline and the live stage), IMU-to-camera extrinsics, accelerometer calibration, and IMU
+recordings as angle columns. No I/O: files are read in
 :mod:`walkmon.tables` and the commands."""
 
 from walkmon.imu.attitude import (
     DEFAULT_ATTITUDE_SETTINGS,
+    DEFAULT_IMU_FILTER,
     HANDHELD_ATTITUDE_SETTINGS,
     AttitudeSettings,
     AttitudeTrack,
     ImuAttitudeFilter,
+    ImuFilterSettings,
     estimate_attitude,
     smooth_attitude,
+    track_attitude,
 )
+from walkmon.imu.calibration import AccelerometerCalibration, calibrate_accelerometer
 from walkmon.imu.extrinsics import ExtrinsicsEstimate, estimate_extrinsics
 from walkmon.imu.fusion import (
     DEFAULT_FUSION_SETTINGS,
@@ -31,8 +36,10 @@ from walkmon.imu.recordings import (
 __all__ = [
     "DEFAULT_ATTITUDE_SETTINGS",
     "DEFAULT_FUSION_SETTINGS",
+    "DEFAULT_IMU_FILTER",
     "HANDHELD_ATTITUDE_SETTINGS",
     "IMU_FILTERS",
+    "AccelerometerCalibration",
     "AttitudeSettings",
     "AttitudeTrack",
     "CameraImuFusion",
@@ -40,13 +47,16 @@ __all__ = [
     "FusionSettings",
     "FusionTrack",
     "ImuAttitudeFilter",
+    "ImuFilterSettings",
     "ImuRecording",
     "LiveFusion",
     "LiveFusionSettings",
+    "calibrate_accelerometer",
     "estimate_attitude",
     "estimate_extrinsics",
     "fuse_recording",
     "fused_columns",
     "imu_only_columns",
     "smooth_attitude",
+    "track_attitude",
 ]

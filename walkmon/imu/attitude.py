@@ -38,20 +38,31 @@ from walkmon.errors import ConfigError, InvalidInputError
 
 __all__ = [
     "DEFAULT_ATTITUDE_SETTINGS",
+    "DEFAULT_IMU_FILTER",
     "GYROSCOPE_RULES",
     "HANDHELD_ATTITUDE_SETTINGS",
+    "IMU_FILTERS",
+    "WALKING_ATTITUDE_SETTINGS",
+    "AttitudeCore",
     "AttitudeEstimate",
     "AttitudeSettings",
     "AttitudeStatus",
     "AttitudeTrack",
+    "ErrorStateLayout",
+    "EskfCore",
     "ImuAttitudeFilter",
+    "ImuFilterSettings",
     "SmoothedAttitude",
     "VisualWindows",
+    "VqfCore",
     "estimate_attitude",
     "exp_so3",
     "initial_state_from_rest",
     "log_so3",
+    "make_core",
+    "rotation_from_quaternion_wxyz",
     "smooth_attitude",
+    "track_attitude",
 ]
 
 _log = logging.getLogger(__name__)
@@ -110,11 +121,11 @@ class AttitudeSettings:
     many seconds in the world frame, at ``gravity_update_hz`` with std ``gravity_std_lowpass`` (VQF's idea; see
     :data:`HANDHELD_ATTITUDE_SETTINGS`); 0 (default, best for walking) = per-sample updates as above.
     ``rate_hz_nominal``: the IMU rate (set from the data by the offline functions).
-    ``gyroscope_rule``: what a gyroscope sample means, a property of the sensor: ``"trapezoid"`` (default) for
-    instantaneous rates at the sample time (the simulator's), integrated with the trapezoidal rule;
-    ``"backward"`` for the mean rate over the interval ending at the sample (what filtered MEMS outputs behave
-    like, and what VQF and imufusion assume: on BROAD's real IMU it cuts the inclination error of fast
-    rotations from 1.9 to 1.2 deg, benchmarks/results/fusion.md).
+    ``gyroscope_rule``: what a gyroscope sample means, a property of the sensor: ``"backward"`` (default) for
+    the mean rate over the interval ending at the sample (what real MEMS IMUs report, the simulator's IMU
+    included, and what VQF and imufusion assume: on BROAD's real IMU it cuts the inclination error of fast
+    rotations from 1.9 to 1.2 deg); ``"trapezoid"`` for instantaneous rates at the sample time, integrated with
+    the trapezoidal rule (the old simulator's samples).
     """
 
     gyroscope_noise_rad_s_sqrt_hz: float = 3e-4
@@ -135,7 +146,7 @@ class AttitudeSettings:
     rest_rate_deg_s: float = 0.2
     rest_rate_std_rad_s: float = 0.005
     rate_hz_nominal: float = 200.0
-    gyroscope_rule: str = "trapezoid"
+    gyroscope_rule: str = "backward"
 
     def __post_init__(self) -> None:
         for name in self.__slots__:  # type: ignore[attr-defined]
@@ -154,13 +165,15 @@ class AttitudeSettings:
 
 DEFAULT_ATTITUDE_SETTINGS = AttitudeSettings()
 
-#: For hand-held or general motion (no sustained accelerations) with a real MEMS IMU: gravity from the
-#: accelerometer low-passed over 2 s in the gyro-integrated frame (VQF's idea), a firmer gravity reference
-#: (0.02), a faster-wandering bias (2e-4 rad/s/sqrt(s)), 1 % gyro scale error, and gyro samples taken as
-#: interval means (``gyroscope_rule="backward"``). Chosen on the two BROAD trials, where it beats vqf (online)
-#: and imufusion (benchmarks/results/fusion.md); settings chosen on one trial and measured on the other still
-#: beat both (benchmarks/results/broad-cv.md: 0.390 / 0.995 deg vs vqf 0.429 / 1.023). Worse on walks, where the start of walking and speed changes are sustained forward
-#: accelerations that a 2 s low-pass takes for gravity.
+#: walkmon's filter as it shipped before VQF became the default (``--imu-filter eskf``): gyro samples taken as
+#: instantaneous rates (the old simulator's), per-sample gravity updates; diverged on vigorous real motion.
+WALKING_ATTITUDE_SETTINGS = AttitudeSettings(gyroscope_rule="trapezoid")
+
+#: For hand-held or general motion (no sustained accelerations) with a real MEMS IMU (``--imu-filter
+#: eskf-handheld``): gravity from the accelerometer low-passed over 2 s in the gyro-integrated frame (VQF's idea),
+#: a firmer gravity reference (0.02), a faster-wandering bias (2e-4 rad/s/sqrt(s)), 1 % gyro scale error, gyro
+#: samples as interval means. Chosen on BROAD trials 02 and 07; on all ten shared trials it beats VQF on seven
+#: but loses on the fast translations and tapping (benchmarks/results/broad.md), so it is not the default.
 HANDHELD_ATTITUDE_SETTINGS = AttitudeSettings(
     gravity_lowpass_s=2.0,
     gravity_std_lowpass=0.02,
@@ -202,6 +215,37 @@ class AttitudeEstimate:
 
 
 # ------------------------------------------------------------------------------------------------ filter
+@dataclass(frozen=True, slots=True)
+class ErrorStateLayout:
+    """The error state of :class:`ImuAttitudeFilter`: tilt/orientation error (3, sensor frame), gyroscope bias
+    (3), ``n_clones`` orientation clones (3 each), then ``n_extra`` additive states."""
+
+    n_clones: int = 0
+    n_extra: int = 0
+
+    @property
+    def dim(self) -> int:
+        return 6 + 3 * self.n_clones + self.n_extra
+
+    @property
+    def tilt(self) -> slice:
+        return slice(0, 3)
+
+    @property
+    def bias(self) -> slice:
+        return slice(3, 6)
+
+    def clone(self, index: int) -> slice:
+        if not 0 <= index < self.n_clones:
+            msg = f"clone index {index} out of range (n_clones={self.n_clones})"
+            raise IndexError(msg)
+        return slice(6 + 3 * index, 9 + 3 * index)
+
+    @property
+    def extra(self) -> slice:
+        return slice(6 + 3 * self.n_clones, self.dim)
+
+
 class _RestDetector:
     """Rest when gyro and accelerometer stay within thresholds of their 0.5 s low-pass for ``rest_min_s``."""
 
@@ -302,6 +346,48 @@ class ImuAttitudeFilter:
         self._rotation_gyro = np.eye(3)  # bias-corrected gyro integration, never corrected by gravity
         self._since_gravity_s = 0.0
 
+    # -- read-only views of the state (callers never index the covariance) --------------------------------
+    @property
+    def layout(self) -> ErrorStateLayout:
+        """Where each block of the error state lives (tilt, bias, clones, extra states)."""
+        return ErrorStateLayout(self.n_clones, self.n_extra)
+
+    @property
+    def bias_rad_s(self) -> NDArray[np.float64]:
+        """The gyroscope bias estimate (rad/s, filter axes; a copy)."""
+        return self.bias.copy()
+
+    @property
+    def bias_std_rad_s(self) -> float:
+        """Uncertainty of the bias estimate: the largest per-axis standard deviation (rad/s)."""
+        return float(np.sqrt(np.max(np.diag(self.kf.P)[3:6])))
+
+    @property
+    def gravity_down(self) -> NDArray[np.float64] | None:
+        """Gravity's direction in the sensor frame now (unit vector), None before the first accelerometer."""
+        if self.down_world is None:
+            return None
+        return self.rotation_world.T @ self.down_world
+
+    @property
+    def extra_std(self) -> NDArray[np.float64]:
+        """Standard deviations of the extra states (``n_extra``)."""
+        return np.sqrt(np.diag(self.kf.P)[self.layout.extra])
+
+    def set_extra_prior(self, std: ArrayLike, walk_per_sqrt_s: ArrayLike) -> None:
+        """Prior std of the extra states (uncorrelated with the rest) and their random walk per sqrt(s)."""
+        sl = self.layout.extra
+        std = np.asarray(std, dtype=float).reshape(-1)
+        if std.shape != (self.n_extra,):
+            msg = f"set_extra_prior needs {self.n_extra} values, got {std.shape}"
+            raise InvalidInputError(msg)
+        P = self.kf.P
+        P[sl, :] = 0.0
+        P[:, sl] = 0.0
+        P[sl, sl] = np.diag(std**2)
+        self.extra = np.zeros(self.n_extra)
+        self.extra_walk_per_sqrt_s = np.asarray(walk_per_sqrt_s, dtype=float).reshape(self.n_extra).copy()
+
     def _set_down(self, down: NDArray[np.float64]) -> None:
         """Fix gravity's direction in the world frame and drop the prior's heading part (about gravity)."""
         self.down_world = down
@@ -331,6 +417,11 @@ class ImuAttitudeFilter:
             Q[k:, k:] = np.diag(self.extra_walk_per_sqrt_s**2 * dt)
         P = self.kf.P
         self.kf.P = F @ P @ F.T + Q
+
+    def normalised_innovation(self, residual: NDArray[np.float64], H: NDArray[np.float64], R: NDArray[np.float64]) -> float:
+        """Squared Mahalanobis distance of a residual under the predicted innovation covariance ``H P H^T + R``."""
+        S = H @ self.kf.P @ H.T + R
+        return float(residual @ np.linalg.solve(S, residual))
 
     def update(self, residual: NDArray[np.float64], H: NDArray[np.float64], R: NDArray[np.float64], gate: float | None = None) -> bool:
         """Kalman update with the error-state residual; inject and reset. Returns False when gated out."""
@@ -397,6 +488,42 @@ class ImuAttitudeFilter:
             self._last_gyro = gyro
         return status
 
+    def zero_rate_update(self, gyro: NDArray[np.float64]) -> bool:
+        """At rest: the gyroscope reads its bias (a gated zero-rate measurement on all three axes)."""
+        H = np.zeros((3, self.kf.dim_x))
+        H[:, 3:6] = np.eye(3)
+        return self.update(gyro - self.bias, H, np.eye(3) * self.settings.rest_rate_std_rad_s**2, gate=_GATE_3DOF)
+
+    def gravity_update(self, measured_down: ArrayLike, std: float, gate: float | None = _GATE_3DOF) -> bool:
+        """Gravity's direction in the sensor frame measured (unit vector, e.g. from an attitude core), with
+        ``std`` (~radians) per axis; gated (chi-square, 3 dof) unless ``gate`` is None. False when gated out."""
+        assert self.down_world is not None
+        h0 = self.rotation_world.T @ self.down_world
+        H = np.zeros((3, self.kf.dim_x))
+        H[:, 0:3] = skew(h0)
+        m = np.asarray(measured_down, dtype=float)
+        return self.update(m / np.linalg.norm(m) - h0, H, np.eye(3) * std**2, gate=gate)
+
+    def align_to_gravity(self, measured_down: ArrayLike, tilt_std_deg: float) -> None:
+        """Reset the tilt: rotate the orientation by the smallest rotation that makes its gravity direction
+        ``measured_down`` (sensor frame), keeping the heading; the tilt covariance restarts at ``tilt_std_deg``
+        and its correlations with the other states are dropped (the recovery after a long rejection)."""
+        assert self.down_world is not None
+        m = np.asarray(measured_down, dtype=float)
+        m = m / np.linalg.norm(m)
+        h0 = self.rotation_world.T @ self.down_world
+        axis = np.cross(m, h0)  # R Exp(phi): new gravity Exp(phi)^T h0 = m
+        s_, c_ = float(np.linalg.norm(axis)), float(np.clip(h0 @ m, -1.0, 1.0))
+        if s_ > 1e-12:
+            self.rotation_world = self.rotation_world @ exp_so3(axis / s_ * np.arctan2(s_, c_))
+        P = self.kf.P
+        sl = self.layout.tilt
+        P[sl, :] = 0.0
+        P[:, sl] = 0.0
+        down = self.rotation_world.T @ self.down_world
+        tilt_var = np.radians(tilt_std_deg) ** 2
+        P[sl, sl] = tilt_var * (np.eye(3) - np.outer(down, down)) + 1e-8 * np.outer(down, down)
+
     def correct(self, gyro: NDArray[np.float64], accel: NDArray[np.float64]) -> AttitudeStatus:
         s = self.settings
         norm = float(np.linalg.norm(accel))
@@ -406,15 +533,12 @@ class ImuAttitudeFilter:
             self._set_down(-accel / norm)
             return AttitudeStatus.INITIALISING
         dt = 1.0 / s.rate_hz_nominal
-        bias_std = float(np.sqrt(np.max(np.diag(self.kf.P)[3:6])))
+        bias_std = self.bias_std_rad_s
         trusted = self.bias if bias_std < 0.1 * np.radians(s.rest_gyroscope_deg_s) else None
         self.at_rest = self._rest.push(gyro, accel, dt, trusted)
         status = AttitudeStatus.GRAVITY
-        if self.at_rest:
-            H = np.zeros((3, self.kf.dim_x))
-            H[:, 3:6] = np.eye(3)
-            if self.update(gyro - self.bias, H, np.eye(3) * s.rest_rate_std_rad_s**2, gate=_GATE_3DOF):
-                status = AttitudeStatus.REST
+        if self.at_rest and self.zero_rate_update(gyro):
+            status = AttitudeStatus.REST
         if s.gravity_lowpass_s > 0 and not self.at_rest:
             return self._lowpass_gravity_update(accel, dt)
         if abs(norm - GRAVITY_MS2) > s.acceleration_rejection_m_s2 or norm < 1e-6:
@@ -472,6 +596,169 @@ class ImuAttitudeFilter:
             gyroscope_bias_rad_s=self.bias.copy(),
             status=status,
         )
+
+
+# ---------------------------------------------------------------------------------- IMU attitude cores
+#: IMU attitude filters (``--imu-filter`` and the live config's ``[imu] filter``): ``vqf`` (default) is VQF
+#: (Laidig & Seel 2023, the ``vqf`` package, 6-D, online); ``eskf`` and ``eskf-handheld`` are walkmon's own
+#: error-state filter with its walking defaults and its hand-held preset (kept for comparison).
+IMU_FILTERS = ("vqf", "eskf", "eskf-handheld")
+
+
+@dataclass(frozen=True, slots=True)
+class ImuFilterSettings:
+    """The IMU attitude core: which filter and its knobs.
+
+    ``filter``: one of :data:`IMU_FILTERS`. Default ``vqf``: on all ten shared BROAD trials (real IMU, optical
+    truth; rotation, translation, tapping, vibration) it is never worse than walkmon's own filter with any one
+    setting, which diverged on vigorous combined motion (benchmarks/results/broad.md).
+    ``tau_acc_s`` (vqf): time constant of its accelerometer low-pass in the inertial frame (VQF's 3 s default):
+    longer = less tilt from sustained accelerations (the start and stop of walking), slower to correct gyro
+    errors. ``rest_min_s`` (vqf): how long the sensor must be still before its rest bias estimation starts (VQF's
+    1.5 s). Both defaults are VQF's own: no value was tuned on the benchmark trials.
+    """
+
+    filter: str = "vqf"
+    tau_acc_s: float = 3.0
+    rest_min_s: float = 1.5
+
+    def __post_init__(self) -> None:
+        if self.filter not in IMU_FILTERS:
+            msg = f"unknown IMU filter {self.filter!r}; expected one of {', '.join(IMU_FILTERS)}"
+            raise ConfigError(msg)
+        for name in ("tau_acc_s", "rest_min_s"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and np.isfinite(value) and 0 < value <= 100):
+                msg = f"IMU filter setting {name} must be in (0, 100] s, got {value!r}"
+                raise ConfigError(msg)
+
+
+DEFAULT_IMU_FILTER = ImuFilterSettings()
+
+
+class AttitudeCore:
+    """Common face of the IMU attitude cores: ``push(t_s, gyro, accel)`` per sample (in time order, at the
+    nominal rate given at construction); read-only ``rotation_world`` (sensor -> a gravity-aligned world),
+    ``gravity_down`` (unit, sensor frame), ``bias_rad_s``, ``bias_std_rad_s``, ``at_rest``."""
+
+    rotation_world: NDArray[np.float64]
+    gravity_down: NDArray[np.float64]
+    bias_rad_s: NDArray[np.float64]
+    bias_std_rad_s: float
+    at_rest: bool
+
+    def push(self, t_s: float, gyroscope_rad_s: NDArray[np.float64], accelerometer_m_s2: NDArray[np.float64]) -> None:
+        raise NotImplementedError
+
+
+class VqfCore(AttitudeCore):
+    """VQF (6-D: gyroscope + accelerometer, no magnetometer) as the attitude core; needs the ``vqf`` package.
+    VQF takes each gyroscope sample as the mean rate over the sample interval, as real MEMS IMUs report it."""
+
+    def __init__(self, settings: ImuFilterSettings, rate_hz: float) -> None:
+        try:
+            import vqf  # noqa: PLC0415
+        except ImportError as exc:  # pragma: no cover - vqf is a core dependency
+            msg = "the vqf IMU filter needs the vqf package: pip install vqf"
+            raise ConfigError(msg) from exc
+        if not (np.isfinite(rate_hz) and rate_hz > 0):
+            msg = f"IMU rate must be positive, got {rate_hz}"
+            raise InvalidInputError(msg)
+        self._vqf = vqf.VQF(1.0 / float(rate_hz), tauAcc=float(settings.tau_acc_s), restMinT=float(settings.rest_min_s))
+        self.rotation_world = np.eye(3)
+        self.gravity_down = np.array([0.0, 0.0, -1.0])
+        self.bias_rad_s = np.zeros(3)
+        self.bias_std_rad_s = float(np.radians(0.5))
+        self.at_rest = False
+
+    def push(self, t_s: float, gyroscope_rad_s: NDArray[np.float64], accelerometer_m_s2: NDArray[np.float64]) -> None:
+        v = self._vqf
+        v.update(np.ascontiguousarray(gyroscope_rad_s, dtype=float), np.ascontiguousarray(accelerometer_m_s2, dtype=float))
+        R = rotation_from_quaternion_wxyz(v.getQuat6D())
+        self.rotation_world = R
+        self.gravity_down = -R[2, :]  # R^T (0, 0, -1): VQF's world z points up
+        bias, sigma = v.getBiasEstimate()
+        self.bias_rad_s = np.asarray(bias, dtype=float)
+        self.bias_std_rad_s = float(sigma)
+        self.at_rest = bool(v.getRestDetected())
+
+
+class EskfCore(AttitudeCore):
+    """walkmon's own :class:`ImuAttitudeFilter` as the attitude core (``eskf``: walking defaults with gyro
+    samples as instantaneous rates, as the filter shipped before; ``eskf-handheld``: the hand-held preset)."""
+
+    def __init__(self, settings: ImuFilterSettings, rate_hz: float, *, initial_accelerometer_m_s2: ArrayLike | None = None,
+                 initial_bias_rad_s: ArrayLike | None = None, initial_bias_std_rad_s: float | None = None,
+                 initial_tilt_std_deg: float | None = None) -> None:
+        base = HANDHELD_ATTITUDE_SETTINGS if settings.filter == "eskf-handheld" else WALKING_ATTITUDE_SETTINGS
+        self._filter = ImuAttitudeFilter(_with_rate(base, rate_hz))
+        self._filter.reset(initial_accelerometer_m_s2=initial_accelerometer_m_s2, initial_bias_rad_s=initial_bias_rad_s,
+                           initial_bias_std_rad_s=initial_bias_std_rad_s, initial_tilt_std_deg=initial_tilt_std_deg)
+        self.rotation_world = np.eye(3)
+        self.gravity_down = np.array([0.0, 1.0, 0.0])
+        self.bias_rad_s = self._filter.bias_rad_s
+        self.bias_std_rad_s = self._filter.bias_std_rad_s
+        self.at_rest = False
+
+    def push(self, t_s: float, gyroscope_rad_s: NDArray[np.float64], accelerometer_m_s2: NDArray[np.float64]) -> None:
+        f = self._filter
+        f.push(t_s, gyroscope_rad_s, accelerometer_m_s2)
+        self.rotation_world = f.rotation_world
+        down = f.gravity_down
+        if down is not None:
+            self.gravity_down = down
+        self.bias_rad_s = f.bias_rad_s
+        self.bias_std_rad_s = f.bias_std_rad_s
+        self.at_rest = f.at_rest
+
+
+def make_core(settings: ImuFilterSettings, rate_hz: float, **eskf_start: object) -> AttitudeCore:
+    """The attitude core of ``settings.filter`` for an IMU at ``rate_hz``; ``eskf_start`` (the initial state of
+    :meth:`ImuAttitudeFilter.reset`) only seeds walkmon's own filter: VQF starts as VQF does."""
+    if settings.filter == "vqf":
+        return VqfCore(settings, rate_hz)
+    return EskfCore(settings, rate_hz, **eskf_start)  # type: ignore[arg-type]
+
+
+def rotation_from_quaternion_wxyz(q: ArrayLike) -> NDArray[np.float64]:
+    """Rotation matrix of one unit quaternion (w, x, y, z)."""
+    w, x, y, z = (float(v) for v in np.asarray(q, dtype=float).reshape(4))
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def track_attitude(
+    t_s: ArrayLike,
+    gyroscope_rad_s: ArrayLike,
+    accelerometer_m_s2: ArrayLike,
+    settings: ImuFilterSettings = DEFAULT_IMU_FILTER,
+) -> AttitudeTrack:
+    """IMU-only attitude of a recording with the attitude core (default VQF), causal, sample by sample as the
+    live path runs it; angles relative to the first sample. walkmon's own filters start from the recording's
+    still start (:func:`initial_state_from_rest`); VQF starts as VQF does."""
+    t, g, a = _check_imu_arrays(t_s, gyroscope_rad_s, accelerometer_m_s2)
+    rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
+    start: dict[str, object] = {}
+    if settings.filter != "vqf":
+        a0, b0, b0_std, tilt_std = initial_state_from_rest(t, g, a)
+        start = {"initial_accelerometer_m_s2": a0, "initial_bias_rad_s": b0, "initial_bias_std_rad_s": b0_std,
+                 "initial_tilt_std_deg": tilt_std}
+    core = make_core(settings, rate, **start)
+    n = len(t)
+    rotations = np.empty((n, 3, 3))
+    down = np.empty((n, 3))
+    bias = np.empty((n, 3))
+    for i in range(n):
+        core.push(float(t[i]), g[i], a[i])
+        rotations[i], down[i], bias[i] = core.rotation_world, core.gravity_down, core.bias_rad_s
+    rel = np.einsum("ji,njk->nik", rotations[0], rotations)
+    return AttitudeTrack(
+        t_s=t.copy(), angles_deg=angles_deg_from_rotation(rel), rotations=rel, gravity_down=down,
+        abs_angles_deg=gravity_angles_deg_from_gravity(down), gyroscope_bias_rad_s=bias,
+    )
 
 
 # -------------------------------------------------------------------------------------------- offline
@@ -671,35 +958,38 @@ def smooth_attitude(
         initial_bias_std_rad_s=initial_bias_std_rad_s,
         initial_tilt_std_deg=initial_tilt_std_deg,
     )
-    n = len(t)
-    Rf = np.empty((n, 3, 3))
-    bf = np.empty((n, 3))
-    Rpred = np.empty((n, 3, 3))
-    gains = np.zeros((n, 6, 6))
-    # visual bookkeeping: gyro-only chain G (bias-corrected, no gravity corrections) and its bias Jacobian J
-    G, J = np.eye(3), np.zeros((3, 3))
-    n_frames = 0 if visual is None else len(visual.t_s)
-    used = np.zeros(n_frames, bool)
-    rejected = np.zeros(n_frames, bool)
-    if visual is not None:
-        rejected |= ~np.asarray(visual.ok, bool)
-    anchor: tuple[int, NDArray[np.float64], NDArray[np.float64]] | None = None
-    frame = 0
-    if visual is not None:
-        while frame < n_frames and visual.t_s[frame] < t[0]:
-            frame += 1
-    sg2 = settings.gyroscope_noise_rad_s_sqrt_hz**2
     # rates[i]: the rate over (t_i, t_i+1] as the filter integrates it (last one: extrapolation)
     if settings.gyroscope_rule == "backward":
         rates = np.vstack([g[1:], g[-1:]])
     else:
         rates = np.vstack([0.5 * (g[:-1] + g[1:]), g[-1:]])
+    windows = _VisualWindowUpdates(visual, t[0], settings.gyroscope_noise_rad_s_sqrt_hz**2)
+    Rf, bf, Rpred, gains = _forward_pass(filt, t, g, a, rates, windows)
+    bias_std = filt.bias_std_rad_s
+    Rs, bs = _rts_backward(Rf, bf, Rpred, gains)
+    down = filt.down_world if filt.down_world is not None else np.array([0.0, 1.0, 0.0])
+    return SmoothedAttitude(
+        t_s=t, rotations_world=Rs, bias_rad_s=bs, interval_rates_rad_s=rates, down_world=np.asarray(down, float),
+        visual_used=windows.used, visual_rejected=windows.rejected & ~windows.used, bias_std_rad_s=bias_std,
+    )
+
+
+def _forward_pass(
+    filt: ImuAttitudeFilter, t: NDArray[np.float64], g: NDArray[np.float64], a: NDArray[np.float64],
+    rates: NDArray[np.float64], windows: _VisualWindowUpdates,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The forward filter over the recording, keeping what the backward pass needs: filtered orientations and
+    biases, predicted orientations and the RTS gains ``P_k F^T P_pred(k+1)^-1`` on the 6-D error state."""
+    n = len(t)
+    Rf = np.empty((n, 3, 3))
+    bf = np.empty((n, 3))
+    Rpred = np.empty((n, 3, 3))
+    gains = np.zeros((n, 6, 6))
     for i in range(n):
         if i > 0:
             P_prev = filt.kf.P.copy()
-            b_prev = filt.bias.copy()
             dt = t[i] - t[i - 1]
-            dR = exp_so3((rates[i - 1] - b_prev) * dt)
+            dR = exp_so3((rates[i - 1] - filt.bias) * dt)
             status = filt.advance_to(t[i], g[i])
             F = np.eye(6)
             F[0:3, 0:3] = dR.T
@@ -710,61 +1000,88 @@ def smooth_attitude(
             except np.linalg.LinAlgError:
                 gains[i - 1] = (np.linalg.pinv(P_pred) @ F @ P_prev).T
             Rpred[i] = filt.rotation_world
-            G = G @ dR
-            J = dR.T @ J - np.eye(3) * dt
+            windows.advance(dR, dt)
         else:
             status = filt.advance_to(t[0], g[0])
         if status is None or filt.down_world is None:
             filt.correct(g[i], a[i])
-        # visual frames in [t_i, t_i+1)
-        t_next = t[i + 1] if i + 1 < n else np.inf
-        while visual is not None and frame < n_frames and visual.t_s[frame] < t_next:
-            if not visual.ok[frame]:
-                anchor = None
-                frame += 1
-                continue
-            tau = float(visual.t_s[frame] - t[i])
-            rate = rates[i] - filt.bias
-            dRt = exp_so3(rate * tau)
-            Gf, Jf = G @ dRt, dRt.T @ J - np.eye(3) * tau
-            V = visual.rotations[frame]
-            if anchor is None:
-                anchor = (frame, Gf, Jf)
-            elif visual.t_s[frame] - visual.t_s[anchor[0]] >= visual.baseline_s:
-                k0, Ga, Ja = anchor
-                D = Ga.T @ Gf
-                r = log_so3(D.T @ (visual.rotations[k0].T @ V))
-                H = np.zeros((3, 6))
-                H[:, 3:6] = Jf - D.T @ Ja
-                window_s = float(visual.t_s[frame] - visual.t_s[k0])
-                var = np.radians(visual.std_deg) ** 2 + sg2 * window_s
-                ok_window = np.degrees(np.linalg.norm(r)) <= visual.outlier_deg
-                if ok_window:
-                    Rm = np.eye(3) * var
-                    S = H @ filt.kf.P @ H.T + Rm
-                    d2 = float(r @ np.linalg.solve(S, r))
-                    if d2 > visual.gate:
-                        Rm = Rm * (d2 / visual.gate)
-                    filt.update(r, H, Rm)
-                    used[k0 : frame + 1] = True
-                else:
-                    rejected[k0 + 1 : frame + 1] = True
-                # re-anchor on the gyro chain as it stands after the update (the bias moved)
-                anchor = (frame, Gf, Jf)
-            frame += 1
+        windows.consume(filt, float(t[i]), t[i + 1] if i + 1 < n else np.inf, rates[i])
         Rf[i] = filt.rotation_world
         bf[i] = filt.bias
-    bias_std = float(np.sqrt(np.max(np.diag(filt.kf.P)[3:6])))
-    # Rauch-Tung-Striebel backward pass on the error state about the forward trajectory
+    return Rf, bf, Rpred, gains
+
+
+def _rts_backward(
+    Rf: NDArray[np.float64], bf: NDArray[np.float64], Rpred: NDArray[np.float64], gains: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Rauch-Tung-Striebel backward pass on the error state about the forward trajectory."""
     Rs = Rf.copy()
     bs = bf.copy()
-    for k in range(n - 2, -1, -1):
+    for k in range(len(Rf) - 2, -1, -1):
         d = np.concatenate([log_so3(Rpred[k + 1].T @ Rs[k + 1]), bs[k + 1] - bf[k]])
         dx = gains[k] @ d
         Rs[k] = Rf[k] @ exp_so3(dx[0:3])
         bs[k] = bf[k] + dx[3:6]
-    down = filt.down_world if filt.down_world is not None else np.array([0.0, 1.0, 0.0])
-    return SmoothedAttitude(
-        t_s=t, rotations_world=Rs, bias_rad_s=bs, interval_rates_rad_s=rates, down_world=np.asarray(down, float),
-        visual_used=used, visual_rejected=rejected & ~used, bias_std_rad_s=bias_std,
-    )
+    return Rs, bs
+
+
+class _VisualWindowUpdates:
+    """The visual bias windows of :func:`smooth_attitude`: a gyro-only chain ``G`` (bias-corrected, no gravity
+    corrections) and its bias Jacobian ``J``; the rotation between two good frames ``baseline_s`` apart,
+    compared with the chain over the same window, measures the bias. ``used`` / ``rejected`` per frame."""
+
+    def __init__(self, visual: VisualWindows | None, t0_s: float, gyro_var: float) -> None:
+        self.visual = visual
+        self.G, self.J = np.eye(3), np.zeros((3, 3))
+        n_frames = 0 if visual is None else len(visual.t_s)
+        self.used = np.zeros(n_frames, bool)
+        self.rejected = np.zeros(n_frames, bool)
+        if visual is not None:
+            self.rejected |= ~np.asarray(visual.ok, bool)
+        self.anchor: tuple[int, NDArray[np.float64], NDArray[np.float64]] | None = None
+        self.frame = 0
+        self.gyro_var = gyro_var
+        while visual is not None and self.frame < n_frames and visual.t_s[self.frame] < t0_s:
+            self.frame += 1
+
+    def advance(self, dR: NDArray[np.float64], dt: float) -> None:
+        self.G = self.G @ dR
+        self.J = dR.T @ self.J - np.eye(3) * dt
+
+    def consume(self, filt: ImuAttitudeFilter, t_i: float, t_next: float, rate_i: NDArray[np.float64]) -> None:
+        """Visual frames in ``[t_i, t_next)``: anchor, or close a window and update the filter's bias."""
+        v = self.visual
+        while v is not None and self.frame < len(v.t_s) and v.t_s[self.frame] < t_next:
+            frame = self.frame
+            self.frame += 1
+            if not v.ok[frame]:
+                self.anchor = None
+                continue
+            tau = float(v.t_s[frame] - t_i)
+            dRt = exp_so3((rate_i - filt.bias) * tau)
+            Gf, Jf = self.G @ dRt, dRt.T @ self.J - np.eye(3) * tau
+            if self.anchor is None:
+                self.anchor = (frame, Gf, Jf)
+            elif v.t_s[frame] - v.t_s[self.anchor[0]] >= v.baseline_s:
+                self._window_update(filt, frame, Gf, Jf)
+                # re-anchor on the gyro chain as it stands after the update (the bias moved)
+                self.anchor = (frame, Gf, Jf)
+
+    def _window_update(self, filt: ImuAttitudeFilter, frame: int, Gf: NDArray[np.float64], Jf: NDArray[np.float64]) -> None:
+        v = self.visual
+        assert v is not None and self.anchor is not None
+        k0, Ga, Ja = self.anchor
+        D = Ga.T @ Gf
+        r = log_so3(D.T @ (v.rotations[k0].T @ v.rotations[frame]))
+        H = np.zeros((3, 6))
+        H[:, 3:6] = Jf - D.T @ Ja
+        window_s = float(v.t_s[frame] - v.t_s[k0])
+        if np.degrees(np.linalg.norm(r)) > v.outlier_deg:
+            self.rejected[k0 + 1 : frame + 1] = True
+            return
+        Rm = np.eye(3) * (np.radians(v.std_deg) ** 2 + self.gyro_var * window_s)
+        d2 = filt.normalised_innovation(r, H, Rm)
+        if d2 > v.gate:
+            Rm = Rm * (d2 / v.gate)
+        filt.update(r, H, Rm)
+        self.used[k0 : frame + 1] = True

@@ -135,13 +135,42 @@ def estimate_extrinsics(
         msg = f"only {len(w_cam)} usable frame intervals; need at least 20 to estimate IMU-camera extrinsics"
         raise InvalidInputError(msg)
     cumulative = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(t)[:, None], axis=0)])
-    speed_cam = np.linalg.norm(w_cam, axis=1)
-    if speed_cam.std() < 1e-6:
+    if np.linalg.norm(w_cam, axis=1).std() < 1e-6:
         msg = "the camera hardly rotates in this recording: the IMU-camera extrinsics cannot be estimated"
         raise InvalidInputError(msg)
+    offset, score = _time_offset(t, cumulative, a, b, w_cam, max_offset_s)
+    lo, hi = a - offset, b - offset
+    inside = (lo >= t[0]) & (hi <= t[-1])
+    w_imu = _mean_gyro(t, cumulative, lo[inside], hi[inside])
+    w_c = w_cam[inside]
+    rot, bias, keep = _robust_rotation(w_c, w_imu)
+    centred_c = w_c[keep] - w_c[keep].mean(0)
+    centred_i = w_imu[keep] - w_imu[keep].mean(0)
+    sv = np.linalg.svd(centred_c.T @ centred_i, compute_uv=False)
+    excitation = float(sv[1] / sv[0]) if sv[0] > 0 else 0.0
+    err = np.linalg.norm(w_c[keep] - ((w_imu[keep] - bias) @ rot.T), axis=1)
+    result = ExtrinsicsEstimate(
+        camera_from_imu=rot,
+        time_offset_s=offset,
+        residual_deg_s=float(np.degrees(np.sqrt(np.mean(err**2)))),
+        correlation=score,
+        n_intervals=int(keep.sum()),
+        rotation_deg=float(np.degrees(np.linalg.norm(log_so3(rot)))),
+        axis_excitation=excitation,
+    )
+    _log.info("IMU-camera extrinsics: %s", result.to_dict())
+    return result
+
+
+def _time_offset(
+    t: NDArray[np.float64], cumulative: NDArray[np.float64], a: NDArray[np.float64], b: NDArray[np.float64],
+    w_cam: NDArray[np.float64], max_offset_s: float,
+) -> tuple[float, float]:
+    """The offset (video time tv = IMU time + offset) maximising the correlation of the camera's and the
+    gyroscope's rotation speeds over the frame intervals (1 ms grid, parabolic refinement), and that correlation."""
+    speed_cam = np.linalg.norm(w_cam, axis=1)
 
     def correlation(offset: float) -> float:
-        # video time tv corresponds to IMU time tv - offset
         lo, hi = a - offset, b - offset
         inside = (lo >= t[0]) & (hi <= t[-1])
         if inside.sum() < 20:
@@ -159,11 +188,14 @@ def estimate_extrinsics(
         denom = y0 - 2 * y1 + y2
         if denom < 0:
             offset += float(0.5 * (y0 - y2) / denom) * 1e-3
-    lo, hi = a - offset, b - offset
-    inside = (lo >= t[0]) & (hi <= t[-1])
-    w_imu = _mean_gyro(t, cumulative, lo[inside], hi[inside])
-    w_c = w_cam[inside]
-    # remove the gyroscope bias (the mean difference after rotation) iteratively with the rotation
+    return offset, float(scores[k])
+
+
+def _robust_rotation(
+    w_c: NDArray[np.float64], w_imu: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Rotation (Wahba) and gyroscope bias between matched camera and IMU rates, re-estimated three times
+    without the intervals beyond 5 robust sigmas; returns (rotation, bias, intervals kept)."""
     keep = np.ones(len(w_c), bool)
     rot = np.eye(3)
     bias = np.zeros(3)
@@ -174,20 +206,4 @@ def estimate_extrinsics(
         med = np.median(err)
         mad = np.median(np.abs(err - med)) + 1e-9
         keep = err < med + 5.0 * 1.4826 * mad
-    centred_c = w_c[keep] - w_c[keep].mean(0)
-    centred_i = w_imu[keep] - w_imu[keep].mean(0)
-    sv = np.linalg.svd(centred_c.T @ centred_i, compute_uv=False)
-    excitation = float(sv[1] / sv[0]) if sv[0] > 0 else 0.0
-    err = np.linalg.norm(w_c[keep] - ((w_imu[keep] - bias) @ rot.T), axis=1)
-    residual = float(np.degrees(np.sqrt(np.mean(err**2))))
-    result = ExtrinsicsEstimate(
-        camera_from_imu=rot,
-        time_offset_s=offset,
-        residual_deg_s=residual,
-        correlation=float(scores[k]),
-        n_intervals=int(keep.sum()),
-        rotation_deg=float(np.degrees(np.linalg.norm(log_so3(rot)))),
-        axis_excitation=excitation,
-    )
-    _log.info("IMU-camera extrinsics: %s", result.to_dict())
-    return result
+    return rot, bias, keep

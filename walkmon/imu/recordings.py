@@ -18,12 +18,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from walkmon.consts import (
-    angles_deg_from_rotation,
-    gravity_angles_deg_from_gravity,
     rotation_from_angles_deg,
 )
 from walkmon.errors import ConfigError, InvalidInputError
-from walkmon.imu.attitude import HANDHELD_ATTITUDE_SETTINGS
+from walkmon.imu.attitude import IMU_FILTERS
 from walkmon.imu.extrinsics import ExtrinsicsEstimate, estimate_extrinsics
 from walkmon.imu.fusion import (
     DEFAULT_FUSION_SETTINGS,
@@ -80,40 +78,20 @@ def _columns(track: FusionTrack, t_out: NDArray[np.float64]) -> dict[str, NDArra
     }
 
 
-#: IMU-only attitude filters: walkmon's error-state Kalman filter with its walking defaults (simulated walks:
-#: ~0.03 deg), the same with the hand-held preset for real hand-held IMUs (gyro samples as interval means,
-#: gravity low-passed over 2 s in the gyro frame: on the BROAD trials no worse than vqf online and imufusion),
-#: or VQF (offline variant; ``pip install vqf``), the best on BROAD offline but 1-2 deg off in pitch on walks
-#: (its 3 s accelerometer low-pass takes the start and stop of walking for tilt; benchmarks/results/fusion.md).
-IMU_FILTERS = ("eskf", "eskf-handheld", "vqf")
-
-
 def imu_only_columns(
     imu: ImuRecording,
     settings: FusionSettings = DEFAULT_FUSION_SETTINGS,
     *,
     max_rate_hz: float = IMU_ONLY_MAX_RATE_HZ,
-    imu_filter: str = "eskf",
+    imu_filter: str | None = None,
 ) -> dict[str, NDArray[np.float64]]:
-    """IMU-only attitude at the IMU's sample times (decimated to at most ``max_rate_hz``), t from the first
-    sample; angles relative to the first sample; ``imu_filter`` one of :data:`IMU_FILTERS`."""
-    if imu_filter not in IMU_FILTERS:
-        msg = f"unknown IMU filter {imu_filter!r}; expected one of {', '.join(IMU_FILTERS)}"
-        raise ConfigError(msg)
+    """IMU-only attitude (the attitude core of ``settings.imu_filter``, default VQF) at the IMU's sample times
+    (decimated to at most ``max_rate_hz``), t from the first sample; angles relative to the first sample;
+    ``imu_filter`` (one of :data:`IMU_FILTERS`) overrides the settings' filter."""
+    if imu_filter is not None:
+        settings = replace(settings, imu_filter=replace(settings.imu_filter, filter=imu_filter))
     step = max(1, int(np.ceil(imu.rate_hz / max_rate_hz - 1e-9)))
     t_video = imu.t_s[::step] + settings.time_offset_s
-    if imu_filter == "vqf":
-        R_ci = settings.camera_from_imu_matrix
-        rotations, down = vqf_attitude(imu.gyroscope_rad_s @ R_ci.T, imu.accelerometer_m_s2 @ R_ci.T, imu.rate_hz)
-        rel = np.einsum("ji,njk->nik", rotations[0], rotations[::step])
-        cols = {"t": t_video - t_video[0]}
-        angles = angles_deg_from_rotation(rel)
-        absolute = gravity_angles_deg_from_gravity(down[::step])
-        cols.update(pitch=angles[:, 0], yaw=angles[:, 1], roll=angles[:, 2])
-        cols.update(pitch_abs=absolute[:, 0], roll_abs=absolute[:, 1])
-        return cols
-    if imu_filter == "eskf-handheld":
-        settings = replace(settings, attitude=HANDHELD_ATTITUDE_SETTINGS)
     track = fuse_recording(imu.t_s, imu.gyroscope_rad_s, imu.accelerometer_m_s2, t_video, settings=settings)
     _log.info("IMU-only attitude: %d samples at %.1f Hz -> %d rows", len(imu.t_s), imu.rate_hz, len(t_video))
     return _columns(track, t_video - t_video[0])

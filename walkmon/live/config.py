@@ -64,10 +64,17 @@ class ImuSettings:
     identity. ``warmup_s``: IMU data gathered before fusing (initial gravity and, if still, gyro bias);
     ``max_gap_s``: IMU samples further apart restart the filter; ``max_lag_s``: a frame later than the newest
     IMU sample by more than this is camera-only (the live loop waits up to ``max_gap_s`` for an IMU that is
-    slightly behind before giving up on a frame).
+    slightly behind before giving up on a frame). ``filter``: the IMU attitude core under the fusion, the same
+    names and meaning as ``walkmon analyze --imu-filter`` (``vqf``, default; ``eskf``, ``eskf-handheld``), with its
+    knobs ``tau_acc_s`` / ``rest_min_s`` (:class:`walkmon.imu.attitude.ImuFilterSettings`). ``calibration``: an
+    accelerometer calibration file of ``walkmon calibrate-imu`` (as ``analyze --imu-calib``); empty: none.
     """
 
     url: str = ""
+    filter: str = "vqf"
+    tau_acc_s: float = 3.0
+    rest_min_s: float = 1.5
+    calibration: str = ""
     time_offset_s: float = 0.0
     extrinsics: tuple[float, ...] = ()
     rotation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -90,6 +97,12 @@ class ImuSettings:
             if any(self.rotation_deg):
                 msg = "imu.extrinsics and imu.rotation_deg are alternatives: give one"
                 raise ValueError(msg)
+        from walkmon.imu.attitude import ImuFilterSettings  # noqa: PLC0415 - validates filter and knobs
+
+        try:
+            ImuFilterSettings(filter=self.filter, tau_acc_s=self.tau_acc_s, rest_min_s=self.rest_min_s)
+        except ConfigError as exc:
+            raise ValueError(f"[imu] {exc}") from None
         if not abs(self.time_offset_s) < 10.0:
             msg = f"imu.time_offset_s must be within +-10 s, got {self.time_offset_s}"
             raise ValueError(msg)
