@@ -157,7 +157,7 @@ def read_bounded(path: str | Path, max_bytes: int, what: str = "file") -> bytes:
     try:
         fd = os.open(p, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
     except FileNotFoundError:
-        msg = f"{p}: no such {what}"
+        msg = f"{p}: no such file" + ("" if what == "file" else f" (expected {what})")
         raise InvalidInputError(msg) from None
     except IsADirectoryError:
         msg = f"{p}: is a folder, expected a {what}"
