@@ -90,8 +90,10 @@ def test_imu_only_and_baseline_from_another_result(clip, result) -> None:  # noq
     assert imu_only.estimates == ()
     assert imu_only.imu_info["mode"] == "imu_only"
     assert list(imu_only.angles.dtype.names) == ["t", "pitch", "yaw", "roll", "pitch_abs", "roll_abs"]
-    # the same walk as its own baseline: nothing differs from normal
-    assert imu_only.gait.classification.label == "normal"
+    # the same walk as its own baseline, analysed the same way: nothing differs from normal (against the fused
+    # result, the IMU alone (VQF) reads ~2 deg more pitch on this 6 s walk: VQF takes the start of walking for tilt)
+    again = walkmon.analyze(imu=clip.video_path.parent / "imu.csv", baseline=imu_only)
+    assert again.gait.classification.label == "normal"
 
 
 def test_analyze_angles_is_what_walkmon_indicators_writes(clip, tmp_path: Path) -> None:  # noqa: ANN001
