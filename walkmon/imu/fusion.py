@@ -81,10 +81,11 @@ class FusionSettings:
     ``core_gravity_std_deg * sqrt(tau_acc_s * core_gravity_hz)``): the gyroscope and the vision carry the
     fast motion and the core holds pitch and roll over tens of seconds. Gravity updates are gated
     (chi-square, 3 dof) but never starved: after ``gravity_reset_s`` of rejected updates the tilt is reset
-    to the core's gravity (counted in ``gravity_resets``). ``core_warmup_s``: the core's gravity is not used for
-    this long after it starts (VQF starts from one accelerometer sample and needs about two time constants to
-    settle; meanwhile the filter keeps the gravity it started from: the still start's mean, or offline the
-    recording's mean specific force). ``visual_std_deg``: std of one frame-to-frame visual rotation
+    to the core's gravity (counted in ``gravity_resets``). ``core_warmup_s``: when the samples do not start still (or
+    after a restart), the core's gravity is not used for this long: VQF starts from one accelerometer sample, up
+    to ~10 deg off mid-walk, and that error decays with its 3 s time constant (12 s leave 2 % of it; 6 s left 1.2
+    deg of fused pitch on walks cut to start mid-walk); meanwhile the filter keeps the gravity it started from
+    (offline the recording's mean specific force, live the gravity the camera carried on). ``visual_std_deg``: std of one frame-to-frame visual rotation
     about the camera's x and y axes, ``visual_roll_std_factor`` times that about the optical axis (the fast
     estimator on simulated walks: 0.007-0.011 deg per frame, roll the worst, but with errors that do not average
     out: 0.3-0.8 % scale error and 0.005-0.015 deg/s drift against truth, so the increments are weighted as
@@ -108,7 +109,7 @@ class FusionSettings:
     imu_filter: ImuFilterSettings = DEFAULT_IMU_FILTER
     core_gravity_std_deg: float = 1.0
     core_gravity_hz: float = 10.0
-    core_warmup_s: float = 6.0
+    core_warmup_s: float = 12.0
     gravity_reset_s: float = 3.0
     visual_std_deg: float = 0.05
     visual_gate: float = _GATE_3DOF
