@@ -180,9 +180,13 @@ def read_imu_csv(path: str | Path) -> ImuRecording:
 def read_accelerometer_calibration(path: str | Path) -> AccelerometerCalibration:
     """A ``walkmon calibrate-imu`` JSON file; malformed files raise InvalidInputError with one line."""
     from walkmon.imu.calibration import AccelerometerCalibration  # noqa: PLC0415  (the IMU package does no I/O)
+    from walkmon.safe_io import MAX_TEXT_INPUT_BYTES, read_bounded  # noqa: PLC0415
 
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        data = json.loads(read_bounded(path, MAX_TEXT_INPUT_BYTES, "calibration file").decode("utf-8"))
+    except RecursionError:
+        msg = f"{path}: nested too deeply to be a calibration file"
+        raise InvalidInputError(msg) from None
     except json.JSONDecodeError as exc:
         msg = f"{path}: not a JSON calibration file ({exc.msg}, line {exc.lineno})"
         raise InvalidInputError(msg) from None

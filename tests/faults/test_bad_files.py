@@ -72,6 +72,11 @@ def test_baseline_from_dev_zero_is_refused(sessions_db: Path, tmp_path: Path, cl
     res.one_line_error("not a regular file")
 
 
+def test_imu_calibration_from_dev_zero_is_bounded(walk: Path, tmp_path: Path, cli) -> None:
+    res = cli("analyze", "--imu", walk / "imu.csv", "--imu-calib", "/dev/zero", "--out", tmp_path / "o")
+    res.one_line_error("/dev/zero", "larger than")
+
+
 def test_dead_imu_file_is_refused_for_imu_only_analysis(tmp_path: Path, cli) -> None:
     imu = tmp_path / "zeros.csv"
     imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(f"{i / 100:.2f},0,0,0,0,0,0\n" for i in range(500)))

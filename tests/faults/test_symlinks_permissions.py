@@ -12,6 +12,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from walkmon.errors import UnsafePathError
@@ -85,6 +86,23 @@ def test_calibration_writer_refuses_a_symlinked_yaml(tmp_path: Path) -> None:
     (tmp_path / "cam.yaml").symlink_to(victim)
     with pytest.raises(UnsafePathError, match="symbolic link"):
         write_camera_yaml(default_camera(), tmp_path / "cam.yaml")  # what 'walkmon calibrate --out' calls
+    assert victim.read_text() == "precious\n"
+
+
+def test_calibrate_imu_refuses_a_symlinked_output(tmp_path: Path, cli) -> None:
+    victim = tmp_path / "victim.json"
+    victim.write_text("precious\n")
+    (tmp_path / "cal.json").symlink_to(victim)
+    from scipy.spatial.transform import Rotation
+
+    from walkmon.simulate.imu import simulate_static_poses
+    from walkmon.tables import write_table
+
+    poses = np.array([r.as_matrix() for r in (*(Rotation.from_euler("x", a, degrees=True) for a in (0, 90, 180, 270)),
+                                               *(Rotation.from_euler("z", a, degrees=True) for a in (90, 270)))])
+    imu = tmp_path / "poses.csv"
+    write_table(imu, simulate_static_poses(poses, seed=1).columns(), default_precision=7)
+    cli("calibrate-imu", imu, "--out", tmp_path / "cal.json").one_line_error("symbolic link")
     assert victim.read_text() == "precious\n"
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from walkmon.errors import InvalidInputError
@@ -35,9 +34,9 @@ def run(args: argparse.Namespace) -> int:
     misalignment = {"auto": None, "scale": False, "full": True}[args.model]
     cal = calibrate_accelerometer(imu.t_s, imu.gyroscope_rad_s, imu.accelerometer_m_s2, misalignment=misalignment,
                                   min_still_s=args.min_still_s)
-    with open(args.out, "w", encoding="utf-8") as fh:
-        json.dump({**cal.to_dict(), "source": str(args.imu)}, fh, indent=1)
-        fh.write("\n")
+    from walkmon.safe_io import json_text, write_text  # noqa: PLC0415 - temp file + rename, never through a link
+
+    write_text(args.out, json_text({**cal.to_dict(), "source": str(args.imu)}))
     b = cal.bias_m_s2
     M = cal.matrix_3x3
     sys.stdout.write(f"{cal.n_poses} still poses; bias {b[0]:+.4f} {b[1]:+.4f} {b[2]:+.4f} m/s2; scale "

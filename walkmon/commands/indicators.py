@@ -83,9 +83,12 @@ def _meta_beside(path: Path) -> dict[str, Any]:
     meta: dict[str, Any] = {"input": str(path)}
     side = path.parent / "meta.json"
     if side.is_file():
+        from walkmon.errors import InvalidInputError  # noqa: PLC0415
+        from walkmon.safe_io import MAX_TEXT_INPUT_BYTES, read_bounded  # noqa: PLC0415
+
         try:
-            doc = json.loads(side.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            doc = json.loads(read_bounded(side, MAX_TEXT_INPUT_BYTES, "meta.json"))
+        except (OSError, ValueError, RecursionError, InvalidInputError):
             return meta
         if isinstance(doc, dict):
             for key, value in doc.items():
