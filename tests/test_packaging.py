@@ -78,3 +78,14 @@ def test_sdist_and_wheel_ship_license_typing_marker_and_example_config(tmp_path:
         snames = set(sdist.getnames())
     for name in ("LICENSE", "walkmon/py.typed", "walkmon/live/example.toml"):
         assert f"walkmon-{version}/{name}" in snames, name
+
+
+def test_slow_tests_run_by_default() -> None:
+    """The real-time and end-to-end tests are marked slow so they can be deselected by hand (-m 'not slow'),
+    but the default run (CI: the README's test command) runs them."""
+    project = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))
+    opts = project["tool"]["pytest"]["ini_options"]
+    assert any(m.startswith("slow:") for m in opts["markers"])
+    assert "slow" not in opts["addopts"]
+    marked = [p for p in (REPO / "tests").rglob("test_*.py") if "mark.slow" in p.read_text(encoding="utf-8")]
+    assert {"test_pipeline.py", "test_end_to_end.py", "test_live_cli.py"} <= {p.name for p in marked}

@@ -12,15 +12,18 @@ from __future__ import annotations
 import csv
 import io
 import json
+import logging
 import math
 from collections import Counter
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from walkmon.consts import IMU_COLUMNS
 from walkmon.errors import InvalidInputError
 
 if TYPE_CHECKING:
@@ -28,8 +31,10 @@ if TYPE_CHECKING:
     from walkmon.imu.calibration import AccelerometerCalibration
     from walkmon.imu.recordings import ImuRecording
 
-__all__ = ["read_accelerometer_calibration", "read_imu_csv", "read_indicators", "read_table", "write_indicators",
-           "write_table"]
+__all__ = ["ImuFile", "read_accelerometer_calibration", "read_imu_csv", "read_imu_file", "read_indicators",
+           "read_table", "write_indicators", "write_table"]
+
+_log = logging.getLogger(__name__)
 
 
 def read_table(
@@ -168,9 +173,8 @@ def read_imu_csv(path: str | Path) -> ImuRecording:
     """Read imu.csv (``t,gx,gy,gz,ax,ay,az``); malformed files raise InvalidInputError with one line.
 
     Rows that cannot be real (malformed, non-finite, beyond a MEMS sensor's range, no gravity, time going back)
-    are skipped and counted by :func:`walkmon.drivers.file_imu.read_imu_file` (CSV lines carry no checksum); a
+    are skipped and counted by :func:`read_imu_file` (CSV lines carry no checksum); a
     file with fewer than 10 plausible rows is refused."""
-    from walkmon.drivers.file_imu import read_imu_file  # noqa: PLC0415
     from walkmon.imu.recordings import ImuRecording  # noqa: PLC0415  (the IMU package does no I/O)
 
     f = read_imu_file(path, min_rows=10)
@@ -231,3 +235,47 @@ def read_indicators(path: str | Path) -> Indicators:
     from walkmon.gait.indicators import indicators_from_dict  # noqa: PLC0415  (gait does no I/O)
 
     return indicators_from_dict(doc, str(p))
+
+
+# ------------------------------------------------------------------------------------------ imu.csv
+@dataclass(frozen=True, slots=True)
+class ImuFile:
+    """The plausible rows of an imu.csv and the count of rows skipped per reason."""
+
+    t_s: NDArray[np.float64]
+    gyroscope_rad_s: NDArray[np.float64]
+    accelerometer_m_s2: NDArray[np.float64]
+    rejected: dict[str, int]
+
+    @property
+    def n_rejected(self) -> int:
+        return sum(self.rejected.values())
+
+
+def read_imu_file(path: str | Path, *, min_rows: int = 1) -> ImuFile:
+    """Read imu.csv keeping only plausible rows (see the module docstring); InvalidInputError (one line) for
+    an unreadable file or one with fewer than ``min_rows`` plausible rows."""
+    rejected: Counter[str] = Counter()
+    cols = read_table_skipping(path, rejected)
+    t = cols["t"]
+    gyro = np.column_stack([cols["gx"], cols["gy"], cols["gz"]]) if len(t) else np.zeros((0, 3))
+    accel = np.column_stack([cols["ax"], cols["ay"], cols["az"]]) if len(t) else np.zeros((0, 3))
+    n_total = len(t) + sum(rejected.values())  # rows read + rows read_table skipped as malformed
+    from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
+
+    keep, why = plausible_rows(t, gyro, accel)
+    rejected.update(why)
+    if rejected:
+        _log.warning("%s: %d of %d IMU rows skipped as implausible (%s)", path, sum(rejected.values()), n_total,
+                     ", ".join(f"{k} {v}" for k, v in sorted(rejected.items())))
+    if int(keep.sum()) < min_rows:
+        detail = f" ({', '.join(f'{k} {v}' for k, v in sorted(rejected.items()))})" if rejected else ""
+        msg = (f"{path}: {int(keep.sum())} plausible IMU rows of {n_total}{detail}; need at least {min_rows} "
+               "(a dead sensor reads all zeros; columns are t,gx,gy,gz,ax,ay,az in s, rad/s, m/s2)")
+        raise InvalidInputError(msg)
+    return ImuFile(t[keep], gyro[keep], accel[keep], dict(rejected))
+
+
+def read_table_skipping(path: str | Path, rejected: Counter[str]) -> dict[str, NDArray[np.float64]]:
+    """The imu.csv columns with malformed rows skipped and counted in ``rejected``."""
+    return read_table(path, IMU_COLUMNS, skip_bad_rows=True, rejected=rejected)

@@ -7,9 +7,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from walkmon.live.session_log import list_sessions, open_database, read_session_table
 
 
+@pytest.mark.slow  # real time: runs for the wall-clock seconds it simulates
 def test_signals_recalibrate_and_stop_cleanly(tmp_path: Path) -> None:
     cmd = [sys.executable, "-m", "walkmon.commands.cli", "live", "--camera",
            "sim:stand:4,normal:60?width=160&height=120&realtime=1&seed=1", "--data-dir", str(tmp_path),

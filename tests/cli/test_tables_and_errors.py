@@ -172,6 +172,12 @@ def test_drivers_import_as_walkmon_drivers_from_a_checkout_and_never_as_drivers(
     out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=60, check=True)
     assert out.stdout.split() == ["walkmon.drivers", "walkmon.drivers.sources"]
     # Away from the checkout nothing named plain `drivers` is importable (the installer maps it under walkmon).
+    # (PYTHONPATH is dropped: a developer's PYTHONPATH=<checkout> puts the checkout root, drivers/ and all, on the
+    # path by hand.)
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     code = "import importlib.util; print(importlib.util.find_spec('drivers') is None)"
-    out = subprocess.run([sys.executable, "-c", code], cwd="/", capture_output=True, text=True, timeout=60, check=True)
+    out = subprocess.run([sys.executable, "-c", code], cwd="/", capture_output=True, text=True, timeout=60, check=True,
+                         env=env)
     assert out.stdout.strip() == "True"

@@ -222,7 +222,7 @@ def test_bad_indicators_json_is_one_clear_error(tmp_path, text: str, match: str)
     p.write_text(text)
     with pytest.raises(InvalidInputError, match=match):
         read_indicators(p)
-    with pytest.raises(InvalidInputError, match="no such file"):
+    with pytest.raises(InvalidInputError, match="missing.json: no such"):
         read_indicators(tmp_path / "missing.json")
     with pytest.raises(InvalidInputError, match="must be a number"):
         indicators_from_dict(

@@ -14,6 +14,8 @@ import pytest
 from walkmon.commands.cli import main
 from walkmon.live.session_log import list_sessions, open_database, read_session_table
 
+pytestmark = pytest.mark.slow  # a rendered 22 s session through walkmon live (still run by CI)
+
 BEND_START_S = 2.0 + 5.0  # standing 2 s, normal 5 s
 BEND_END_S = BEND_START_S + 8.0
 

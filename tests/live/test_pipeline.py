@@ -87,6 +87,7 @@ def test_source_ending_mid_stream_closes_the_session_with_its_data(bend_model: G
     assert s.duration_s == pytest.approx(6.0)
 
 
+@pytest.mark.slow  # real time: runs for the wall-clock seconds it simulates
 def test_stop_from_another_thread_ends_a_realtime_session_cleanly(bend_model: GaitModel, tmp_path: Path, GaitSource, TruthEstimator) -> None:
     hop_seen = threading.Event()
     p = make_pipeline(GaitSource(bend_model, realtime=True), TruthEstimator(bend_model), tmp_path,
@@ -98,6 +99,7 @@ def test_stop_from_another_thread_ends_a_realtime_session_cleanly(bend_model: Ga
     assert list_sessions(tmp_path)[0].end_reason == "test stop"
 
 
+@pytest.mark.slow  # real time: runs for the wall-clock seconds it simulates
 def test_slow_consumer_drops_oldest_frames_and_counts_them(bend_model: GaitModel, tmp_path: Path, GaitSource, TruthEstimator) -> None:
     """A 30 fps realtime source and a 25 ms-per-frame... no: a 60 ms-per-frame estimator: about half is dropped."""
     src = GaitSource(bend_model, stop_after_s=3.0, realtime=True)
@@ -160,6 +162,7 @@ class SlowCommitLog(SessionLog):
         super().flush()
 
 
+@pytest.mark.slow  # real time: runs for the wall-clock seconds it simulates
 def test_slow_database_commits_do_not_stall_frames(bend_model: GaitModel, tmp_path: Path, GaitSource, TruthEstimator) -> None:
     src = GaitSource(bend_model, stop_after_s=3.0, realtime=True)
     p = LivePipeline(src, lambda _s: TruthEstimator(bend_model), indicators=LiveIndicatorStage(),
@@ -176,6 +179,7 @@ class FailingLog(SessionLog):
         super().add_frame(*args, **kw)  # type: ignore[arg-type]
 
 
+@pytest.mark.slow  # real time: runs for the wall-clock seconds it simulates
 def test_a_failing_session_log_ends_the_session_with_the_error(bend_model: GaitModel, tmp_path: Path, GaitSource, TruthEstimator) -> None:
     from walkmon.errors import WalkmonError
 

@@ -121,6 +121,7 @@ def test_notifier_is_a_no_op_outside_systemd() -> None:
     assert notify_socket_address("relative/path") is None
 
 
+@pytest.mark.slow  # real time: runs for the wall-clock seconds it simulates
 def test_pipeline_sends_ready_after_first_frame_and_watchdog_from_its_loop(tmp_path: Path, GaitSource, TruthEstimator) -> None:
 
     from walkmon.simulate.gait import GaitModel  # noqa: PLC0415
@@ -139,6 +140,7 @@ def test_pipeline_sends_ready_after_first_frame_and_watchdog_from_its_loop(tmp_p
     assert msgs[-1] == "STOPPING=1"
 
 
+@pytest.mark.slow  # real time: runs for the wall-clock seconds it simulates
 def test_a_hung_camera_stops_the_watchdog_pings(tmp_path: Path, caplog: pytest.LogCaptureFixture, GaitSource, TruthEstimator) -> None:
     """The grabber stuck inside a driver call: the loop keeps running but stops WATCHDOG=1 (systemd restarts)."""
     from walkmon.drivers.camera_base import Frame  # noqa: PLC0415

@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--imu", metavar="SOURCE", help="IMU source, e.g. serial:/dev/ttyACM0?baud=115200, file:imu.csv, "
                    "or depthai: (the OAK camera's own IMU; same as imu=1 in the depthai: camera URL); "
                    "with an IMU the live angles are camera-IMU fused")
-    p.add_argument("--config", metavar="TOML", help="configuration file (see deploy/walkmon.toml)")
+    p.add_argument("--config", metavar="TOML", help="configuration file (every key: 'walkmon config --example')")
     p.add_argument("--calib", metavar="YAML", help="camera intrinsics (ROS camera_info YAML)")
     p.add_argument("--method", choices=("fast", "paper"), help="rotation estimator method (default: config, fast)")
     p.add_argument("--data-dir", metavar="DIR", help="session database folder (default ~/.local/share/walkmon)")

@@ -14,6 +14,7 @@ from __future__ import annotations
 import logging
 import math
 from collections import deque
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -207,33 +208,72 @@ class FastEngine:
 
     # ----------------------------------------------------------------------------------------------------------
     def push(self, grey: NDArray[np.uint8], t_s: float) -> RotationEstimate:
-        s = self.s
+        """The orientation at ``t_s`` from one grey frame: screen the frame, track, fit, accept or hold."""
+        small = self._tracking_image(grey)
+        held = self._screen(small, t_s)
+        if held is not None:
+            return held
+        if self._prev_small is None:
+            return self._start(small, t_s)
+        n = self._track(small)
+        if n < self.s.min_inliers:
+            # Lost track (cap removed onto a new view, sudden blur): restart from here, holding orientation.
+            self._restart(small)
+            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, n)
+        fit = self._fit(t_s, n)
+        n_inliers = int(np.count_nonzero(fit.inliers))
+        orientation = self._R_kf @ fit.rotation
+        step_deg = geo.rotation_angle_deg(self._orientation.T @ orientation)
+        if n_inliers < self.s.min_inliers or step_deg > self.s.max_frame_rotation_deg:
+            self._restart(small)
+            return self._hold(t_s, EstimateStatus.LOW_QUALITY, n)
+        new_kf = self._accept(small, orientation, fit)
+        return make_estimate(
+            t_s, self._orientation, n_inliers=n_inliers, model=fit.model, status=fit.status, n_tracks=n,
+            residual_px=float(np.median(fit.residuals_px)), keyframe=new_kf,
+        )
+
+    # -- the steps of push -------------------------------------------------------------------------------------
+    def _tracking_image(self, grey: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        """The grey frame at tracking resolution."""
         if self._track_size != (grey.shape[1], grey.shape[0]):
-            small = cv2.resize(grey, self._track_size, interpolation=cv2.INTER_AREA)
-        else:
-            small = grey
+            small: NDArray[np.uint8] = cv2.resize(grey, self._track_size, interpolation=cv2.INTER_AREA)
+            return small
+        return grey
+
+    def _screen(self, small: NDArray[np.uint8], t_s: float) -> RotationEstimate | None:
+        """A held estimate for a featureless or repeated frame; None for a frame worth tracking."""
         if float(cv2.meanStdDev(small)[1][0, 0]) < _UNIFORM_STD:
             # Lens cap / black frame: hold, and keep the last good frame as the one to track from.
             self.started = True
             return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES)
         if self._prev_small is not None and np.array_equal(small, self._prev_small):
             return self._hold(t_s, EstimateStatus.REPEATED_FRAME, self._pts.shape[0])
-        if self._prev_small is None:
-            first = not self.started
-            self.started = True
-            self._lose_tracks()
-            self._new_keyframe(small)
-            if self._pts.shape[0] < s.min_inliers:
-                return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, self._pts.shape[0])
-            self._prev_small = small
-            status = EstimateStatus.FIRST_FRAME if first else EstimateStatus.OK
-            return make_estimate(
-                t_s, self._orientation, n_inliers=self._pts.shape[0], model="identity" if first else "hold",
-                status=status, n_tracks=self._pts.shape[0], keyframe=True,
-            )
+        return None
 
-        n_before = self._pts.shape[0]
-        if n_before:
+    def _start(self, small: NDArray[np.uint8], t_s: float) -> RotationEstimate:
+        """The first frame (or the first after featureless ones): a keyframe, orientation unchanged."""
+        first = not self.started
+        self.started = True
+        self._restart(small)
+        if self._pts.shape[0] < self.s.min_inliers:
+            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, self._pts.shape[0])
+        self._prev_small = small
+        status = EstimateStatus.FIRST_FRAME if first else EstimateStatus.OK
+        return make_estimate(
+            t_s, self._orientation, n_inliers=self._pts.shape[0], model="identity" if first else "hold",
+            status=status, n_tracks=self._pts.shape[0], keyframe=True,
+        )
+
+    def _restart(self, small: NDArray[np.uint8]) -> None:
+        """Drop every track and start a new keyframe on ``small``."""
+        self._lose_tracks()
+        self._new_keyframe(small)
+
+    def _track(self, small: NDArray[np.uint8]) -> int:
+        """KLT-track the previous frame's points into ``small``, keep those tracked inside the image; their count."""
+        s = self.s
+        if self._pts.shape[0]:
             # OpenCV's Python binding cannot take prebuilt pyramids (opencv#4777), so LK builds both each frame.
             nxt, st, _err = cv2.calcOpticalFlowPyrLK(
                 self._prev_small, small, self._pts, None, winSize=(s.klt_window_px, s.klt_window_px),
@@ -246,14 +286,11 @@ class FastEngine:
             self._pts = nxt
             self._keep(ok)
         self._prev_small = small
-        n = self._pts.shape[0]
-        if n < s.min_inliers:
-            # Lost track (cap removed onto a new view, sudden blur): restart from here, holding orientation.
-            self._lose_tracks()
-            self._new_keyframe(small)
-            est = self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, n)
-            return est
+        return int(self._pts.shape[0])
 
+    def _fit(self, t_s: float, n: int) -> _Fit:
+        """The rotation relative to the keyframe: rotation-only, or essential when GRIC prefers it and it agrees."""
+        s = self.s
         q_cur = self._normalized(self._pts)
         q_kf = self._kf_q
         sigma = s.feature_noise_px
@@ -261,9 +298,7 @@ class FastEngine:
             q_kf, q_cur, self._focal, rotation_init=self._R_rel, scale_px=sigma * 2, inlier_px=s.inlier_px,
             iterations=3,
         )
-        model, R_rel, residuals, inliers = "rotation", rot.rotation, rot.residuals_px, rot.inliers
-        status = EstimateStatus.OK
-        mask = rot.inliers
+        fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.OK)
         if float(np.median(rot.residuals_px)) > 0.5 * sigma and n >= max(8, s.min_inliers):
             pose = self._essential_fit(q_kf, q_cur, rot.rotation)
             mask = pose.inliers | rot.inliers
@@ -275,24 +310,20 @@ class FastEngine:
                     # use the rotation-only fit (biased by at most about the parallax, not by degrees) and say
                     # so; keep the tracks either model accepts, since parallax pushes good tracks out of
                     # the rotation-only inlier set.
-                    status, inliers = EstimateStatus.LOW_QUALITY, mask
+                    fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY)
                     _log.debug("t=%.3f: essential and rotation-only fits disagree; rotation-only used", t_s)
                 else:
-                    model, R_rel, residuals = "essential", pose.rotation, np.abs(pose.residuals_px)
-                    inliers = pose.inliers
-        n_inliers = int(np.count_nonzero(inliers))
-        orientation = self._R_kf @ R_rel
-        step_deg = geo.rotation_angle_deg(self._orientation.T @ orientation)
-        if n_inliers < s.min_inliers or step_deg > s.max_frame_rotation_deg:
-            self._lose_tracks()
-            self._new_keyframe(small)
-            return self._hold(t_s, EstimateStatus.LOW_QUALITY, n)
+                    fit = _Fit("essential", pose.rotation, np.abs(pose.residuals_px), pose.inliers, EstimateStatus.OK)
+        return fit
 
+    def _accept(self, small: NDArray[np.uint8], orientation: NDArray[np.float64], fit: _Fit) -> bool:
+        """Take the frame's orientation, keep the inlier tracks, start a new keyframe when due (returned)."""
+        s = self.s
         self._orientation = orientation
-        self._R_rel = R_rel
-        self._keep(inliers)
+        self._R_rel = fit.rotation
+        self._keep(fit.inliers)
         self._frames_since_kf += 1
-        rel_deg = geo.rotation_angle_deg(R_rel)
+        rel_deg = geo.rotation_angle_deg(fit.rotation)
         new_kf = (
             self._pts.shape[0] < s.keyframe_min_track_fraction * self._kf_tracks
             or self._frames_since_kf >= s.keyframe_max_frames
@@ -300,7 +331,15 @@ class FastEngine:
         )
         if new_kf:
             self._new_keyframe(small)  # may refine self._orientation over the keyframe window
-        return make_estimate(
-            t_s, self._orientation, n_inliers=n_inliers, model=model, status=status, n_tracks=n,
-            residual_px=float(np.median(residuals)), keyframe=new_kf,
-        )
+        return bool(new_kf)
+
+
+@dataclass(frozen=True, slots=True)
+class _Fit:
+    """One frame's model choice: ``rotation`` relative to the keyframe, per-track residuals and inliers."""
+
+    model: str
+    rotation: NDArray[np.float64]
+    residuals_px: NDArray[np.float64]
+    inliers: NDArray[np.bool_]
+    status: EstimateStatus
