@@ -760,10 +760,10 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
             factor = 1.0 + side * 0.5 * at("asymmetry", tk) * 0.6 + at("step_jitter", tk) * rng.standard_normal()
             rate = 1.0
             if not mid_start and k < n_on:
-                rate = r_on + (1.0 - r_on) * float(_smoothstep(np.array((k + 0.5) / n_on)))
+                rate = r_on + (1.0 - r_on) * float(_smoothstep(np.array(k / n_on)))
             if stopping_from is not None:
                 j = k - stopping_from
-                rate = min(rate, r_off + (1.0 - r_off) * float(_smoothstep(np.array((n_off - j - 0.5) / n_off))))
+                rate = min(rate, r_off + (1.0 - r_off) * float(_smoothstep(np.array((n_off - 1 - j) / n_off))))
             steps.append(tk + base * max(factor, 0.5) / rate)
             k += 1
             if mid_end:
@@ -860,6 +860,7 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
     ph = rng.uniform(0.0, 2.0 * np.pi, size=12)
     ph[3] = np.pi  # bob's 2nd harmonic sharpens the lowest point (initial contact: peak upward acceleration)
     h2 = rng.uniform(0.15, 0.3, size=5)
+    h2[1] *= 2.0 / 3.0  # the bob's 2nd harmonic: a secondary hump mid-step below a third of the contact peak
     asym = vals["asymmetry"]
     two_pi_phi = 2.0 * np.pi * phi
     stride = np.pi * phi
