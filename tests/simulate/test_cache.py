@@ -48,7 +48,7 @@ def test_cached_simulation_simulates_once_per_key(tmp_path, monkeypatch) -> None
 
     real = session.simulate
 
-    def counting(out, **kwargs):  # noqa: ANN001, ANN202
+    def counting(out, **kwargs):
         calls.append(kwargs)
         return real(out, **kwargs)
 

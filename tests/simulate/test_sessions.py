@@ -15,7 +15,13 @@ import pytest
 from scipy.signal import find_peaks, peak_prominences
 
 from walkmon.errors import InvalidInputError
-from walkmon.simulate import GaitModel, SimulatedSession, parse_walk_script, simulate, simulate_imu
+from walkmon.simulate import (
+    GaitModel,
+    SimulatedSession,
+    parse_walk_script,
+    simulate,
+    simulate_imu,
+)
 from walkmon.simulate.unkind import UNKIND_WALKS, unkind_script
 from walkmon.tables import read_table
 

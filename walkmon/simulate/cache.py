@@ -60,19 +60,19 @@ def simulation_params(
     }
 
 
-def simulation_key(**kwargs: Any) -> str:  # noqa: ANN401
+def simulation_key(**kwargs: Any) -> str:
     """A 16-hex-digit key of :func:`simulation_params` (same arguments as :func:`walkmon.simulate.simulate`)."""
     blob = json.dumps(simulation_params(**kwargs), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()[:16]
 
 
-def cached_simulation(cache_dir: str | Path, **kwargs: Any) -> Path:  # noqa: ANN401
+def cached_simulation(cache_dir: str | Path, **kwargs: Any) -> Path:
     """The folder of a simulation with these arguments under ``cache_dir``, simulating it first if needed.
 
     Takes :func:`walkmon.simulate.simulate`'s arguments by keyword (except ``out_dir``). The folder is named
     ``<walk>-s<seed>-<W>x<H>-<key>`` (walk shortened to letters, digits and ``_``), readable and unique.
     """
-    from walkmon.simulate.session import simulate  # noqa: PLC0415
+    from walkmon.simulate.session import simulate
 
     params = simulation_params(**kwargs)
     key = simulation_key(**kwargs)
