@@ -5,7 +5,7 @@ start and end, 2-4 bouts, pauses of 1-6 s, 90/180 degree turns sweeping facades 
 termination, one posture change mid-walk; 30-80 s). The simulation is cached under a key of the simulator
 version and every parameter. ``walkmon analyze`` runs on its IMU (``--imu imu.csv``, IMU only) and on its video
 (320x240, 30 fps: rendering at 640x480 would take ~4x longer; the rotation estimate is not what is scored here),
-and the result is scored against the true timeline (timeline.csv, steps.csv) with
+and the result is scored against the true timeline (truth_timeline.csv, truth_steps.csv) with
 :mod:`walkmon.simulate.scoring`:
 
 * activity per second right (standing / walking / turning / unknown on a 1 s grid) - target >= 95 %;
@@ -73,9 +73,9 @@ class Truth:
 
 
 def read_truth(d: Path) -> Truth:
-    with (d / "timeline.csv").open(encoding="utf-8") as fh:
+    with (d / "truth_timeline.csv").open(encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
-    steps = read_table(d / "steps.csv", ["t", "bout"])
+    steps = read_table(d / "truth_steps.csv", ["t", "bout"])
     meta = json.loads((d / "meta.json").read_text(encoding="utf-8"))
     return Truth(
         t=np.array([float(r["t"]) for r in rows]),

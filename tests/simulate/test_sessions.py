@@ -236,8 +236,8 @@ def test_imu_sees_turns_and_stillness() -> None:
 # -------------------------------------------------------------------------------- files and generator
 def test_truth_files_of_a_session(tmp_path) -> None:
     result = simulate(tmp_path / "s", SCRIPT, seed=4, width=64, height=48, fps=20.0, video=False)
-    tl = read_table(result.out_dir / "timeline.csv", ["t", "trunk_pitch", "trunk_roll", "heading"])
-    lines = (result.out_dir / "timeline.csv").read_text().splitlines()
+    tl = read_table(result.out_dir / "truth_timeline.csv", ["t", "trunk_pitch", "trunk_roll", "heading"])
+    lines = (result.out_dir / "truth_timeline.csv").read_text().splitlines()
     assert lines[0] == "t,activity,label,trunk_pitch,trunk_roll,heading"
     assert len(lines) - 1 == result.n_frames == tl["t"].size
     rows = [ln.split(",") for ln in lines[1:]]
@@ -250,7 +250,7 @@ def test_truth_files_of_a_session(tmp_path) -> None:
     truth = read_table(result.out_dir / "truth.csv", ["t", "yaw"])
     assert np.abs(np.diff(truth["yaw"])).max() < 20.0  # yaw unwrapped across the turn
     assert truth["yaw"].max() > 150.0
-    steps = read_table(result.out_dir / "steps.csv", ["t", "bout"])
+    steps = read_table(result.out_dir / "truth_steps.csv", ["t", "bout"])
     np.testing.assert_allclose(steps["t"], m.step_times_s()[0], atol=1e-4)
     meta = json.loads(result.meta_path.read_text())
     assert meta["simulator_version"] >= 2 and meta["session_script"] is True

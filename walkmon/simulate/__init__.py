@@ -1,9 +1,11 @@
 """Synthetic walking sessions with ground truth: a gait model, an IMU model and a 3-D street renderer.
 
 ``simulate(out_dir, walk="normal", seconds=16.0, seed=0, ...)`` writes video.mp4, truth.csv, imu.csv,
-camera.yaml, meta.json, timeline.csv and steps.csv; ``iter_frames(walk, seconds, seed, ...)`` yields ``(t_s,
-frame_bgr, truth_angles_deg)`` in memory. ``unkind_script(seed)`` draws a random session script as unkind as
-life (issue 11); ``SIMULATOR_VERSION`` changes whenever the same arguments give different output.
+camera.yaml, meta.json, truth_timeline.csv and truth_steps.csv; ``iter_frames(walk, seconds, seed, ...)`` yields
+``(t_s, frame_bgr, truth_angles_deg)`` in memory. :func:`walkmon.simulate.unkind.unkind_script` draws a random
+session script as unkind as life (issue 11); :mod:`walkmon.simulate.cache` keeps simulations for benchmarks
+under a key of ``SIMULATOR_VERSION`` (changed whenever the same arguments give different output) and every
+parameter.
 """
 
 from __future__ import annotations

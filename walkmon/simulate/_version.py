@@ -4,5 +4,5 @@ IMU samples, truth files). Benchmarks key their cached simulations by it (:mod:`
 from __future__ import annotations
 
 #: 1: the simulator up to issue 11 (implicit; never written). 2: session scripts (turns, pauses, gait
-#: initiation/termination, posture changes), timeline.csv/steps.csv truth, unwrapped truth yaw, version in meta.json.
+#: initiation/termination, posture changes), truth_timeline.csv/truth_steps.csv, unwrapped truth yaw, version in meta.json.
 SIMULATOR_VERSION = 2

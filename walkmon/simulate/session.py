@@ -1,8 +1,8 @@
 """A simulated walking session: gait model + street scene + renderer + IMU, written to files or streamed.
 
-``simulate(out_dir, ...)`` writes ``video.mp4``, ``truth.csv``, ``imu.csv``, ``camera.yaml`` and ``meta.json``, and the
-true timeline: ``timeline.csv`` (per frame: activity, posture label, trunk pitch/roll and heading) and ``steps.csv``
-(initial contacts); meta.json's ``pieces`` and ``bouts`` hold the timeline's pieces and the walking bouts;
+``simulate(out_dir, ...)`` writes ``video.mp4``, ``truth.csv``, ``imu.csv``, ``camera.yaml`` and ``meta.json``, and
+the true timeline: ``truth_timeline.csv`` (per frame: activity, posture label, trunk pitch/roll and heading) and
+``truth_steps.csv`` (initial contacts); meta.json's ``pieces`` and ``bouts`` hold the timeline's pieces and bouts;
 ``iter_frames(...)`` yields ``(t_s, frame_bgr, truth_angles_deg)`` in memory (the live ``sim:`` source).
 Frame ``i`` is at ``t = i / fps``; the IMU shares that clock.
 """
@@ -128,7 +128,7 @@ class SimulatedSession:
         )
 
     def timeline(self) -> dict[str, NDArray[Any]]:
-        """timeline.csv columns per frame: t, activity, label (walk type while walking, else empty), and the
+        """truth_timeline.csv columns per frame: t, activity, label (walk type while walking, else empty), and the
         trunk's heading-free posture: trunk_pitch (< 0 bent forward), trunk_roll (> 0 right side down) and
         heading (the walking direction plus the stride's yaw swing, unwrapped), degrees."""
         t = self.frame_times_s
@@ -138,7 +138,7 @@ class SimulatedSession:
                 "heading": body[:, 1]}
 
     def steps(self) -> dict[str, NDArray[Any]]:
-        """steps.csv columns: t (initial contact, s), foot (R/L), bout (index into meta.json's bouts)."""
+        """truth_steps.csv columns: t (initial contact, s), foot (R/L), bout (index into meta.json's bouts)."""
         times, feet = self.model.step_times_s()
         bouts = self.model.bouts()
         idx = np.full(times.shape, -1, int)
@@ -301,7 +301,7 @@ def simulate(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     truth_path, imu_path = out / "truth.csv", out / "imu.csv"
-    timeline_path, steps_path = out / "timeline.csv", out / "steps.csv"
+    timeline_path, steps_path = out / "truth_timeline.csv", out / "truth_steps.csv"
     camera_path, meta_path, video_path = out / "camera.yaml", out / "meta.json", out / "video.mp4"
 
     # round before writing, and add 0.0 so values that round to zero are written as 0.000000, not -0.000000
