@@ -304,15 +304,15 @@ def main() -> int:
     md = [
         "# Unkind simulated sessions: activity, posture segments, cadence per bout",
         "",
-        f"Estimate scored: {', '.join(estimates)} (see the adapter in benchmarks/bench_unkind.py). "
-        f"{len(args.walks)} walk types x seeds {args.first_seed}-{args.first_seed + args.seeds - 1}, "
-        "sessions from `walkmon simulate --unkind` (random standing or mid-walk start/end, pauses, 90/180 deg "
-        "turns at facades 1-3 m away, gait initiation/termination, one posture change mid-walk).",
+        (f"Estimate scored: {', '.join(estimates)} (see the adapter in benchmarks/bench_unkind.py). "
+         f"{len(args.walks)} walk types x seeds {args.first_seed}-{args.first_seed + args.seeds - 1}, "
+         "sessions from `walkmon simulate --unkind` (random standing or mid-walk start/end, pauses, 90/180 deg "
+         "turns at facades 1-3 m away, gait initiation/termination, one posture change mid-walk)."),
         "",
-        f"Targets (issue 11): activity per second >= {TARGETS['activity_pct']:g} %, posture change points within "
-        f"{TARGETS['boundary_s']:g} s, segment labels (true segments >= {MIN_SEGMENT_S:g} s) >= "
-        f"{TARGETS['labels_pct']:g} %, cadence per bout within {TARGETS['cadence_pct']:g} % (each estimated bout "
-        "against the true steps inside it, pauses left out).",
+        (f"Targets (issue 11): activity per second >= {TARGETS['activity_pct']:g} %, posture change points within "
+         f"{TARGETS['boundary_s']:g} s, segment labels (true segments >= {MIN_SEGMENT_S:g} s) >= "
+         f"{TARGETS['labels_pct']:g} %, cadence per bout within {TARGETS['cadence_pct']:g} % (each estimated bout "
+         "against the true steps inside it, pauses left out)."),
         "",
         *_summary_lines(summary),
         "",

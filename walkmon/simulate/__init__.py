@@ -11,7 +11,13 @@ parameter.
 from __future__ import annotations
 
 from walkmon.simulate._version import SIMULATOR_VERSION
-from walkmon.simulate.gait import ACTIVITIES, STANDING_S, WALK_TYPES, GaitModel, parse_walk_script
+from walkmon.simulate.gait import (
+    ACTIVITIES,
+    STANDING_S,
+    WALK_TYPES,
+    GaitModel,
+    parse_walk_script,
+)
 from walkmon.simulate.imu import (
     DEFAULT_IMU_SETTINGS,
     ImuSamples,

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Sequence
+from itertools import pairwise
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,7 +77,7 @@ def change_points(segments: Sequence[tuple[float, float, str]], max_gap_s: float
     segs = sorted(segments, key=lambda s: s[0])
     pts = [
         0.5 * (a[1] + b[0])
-        for a, b in zip(segs[:-1], segs[1:], strict=True)
+        for a, b in pairwise(segs)
         if a[2] != b[2] and b[0] - a[1] <= max_gap_s
     ]
     return np.array(pts, dtype=float)
