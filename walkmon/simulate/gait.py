@@ -716,9 +716,9 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
                 continue
             before = [q for q in block[:i] if q.kind != "turn"]
             src = before[-1] if before else (walks[0] if walks else None)
-            base = src.params if src is not None else p.params
-            p.params = replace(base, walk="turn", speed_mps=base.speed_mps * p.speed_frac,
-                               cadence_spm=base.cadence_spm * p.cadence_frac)
+            posture = src.params if src is not None else p.params
+            p.params = replace(posture, walk="turn", speed_mps=posture.speed_mps * p.speed_frac,
+                               cadence_spm=posture.cadence_spm * p.cadence_frac)
         for i, p in enumerate(block):  # blend widths: ~2 s for a posture change, quick into and out of turns
             if i == 0:
                 continue
