@@ -275,3 +275,17 @@ def test_unkind_scripts_are_reproducible_and_unkind() -> None:
     assert turns >= 20 and pauses >= 20 and 3 <= mid_start <= 17
     with pytest.raises(InvalidInputError, match="walk type"):
         unkind_script(1, "stand")
+
+
+def test_cli_unkind_session(tmp_path, capsys) -> None:
+    from walkmon.commands.cli import main  # noqa: PLC0415
+
+    out = tmp_path / "u"
+    assert main(["simulate", "--unkind", "--walk", "bend", "--seed", "2", "--out", str(out), "--no-video",
+                 "--width", "64", "--height", "48"]) == 0
+    script = unkind_script(2, "bend")
+    assert script in capsys.readouterr().out
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["walk"] == script and meta["session_script"] is True
+    assert main(["simulate", "--unkind", "--walk", "stand", "--out", str(tmp_path / "x"), "--no-video"]) == 2
+    assert "built around a walk type" in capsys.readouterr().err
