@@ -50,11 +50,18 @@ def test_session_script_is_taken_literally(model) -> None:
     assert acts == [("standing", ""), ("walking", "normal"), ("turning", ""), ("walking", "normal"),
                     ("standing", ""), ("walking", "bend"), ("standing", "")]
     assert model.literal
-    assert model.pieces[0].start_s == 0.0 and model.pieces[0].end_s == pytest.approx(3.0)
-    assert model.pieces[-1].end_s == pytest.approx(model.duration_s)
-    # the pause and the final standing keep their scripted length; a run ends on its last step
-    assert model.pieces[4].end_s - model.pieces[4].start_s == pytest.approx(2.0)
-    assert model.pieces[-1].end_s - model.pieces[-1].start_s == pytest.approx(1.5)
+    assert model.pieces[0].start_s == 0.0 and model.pieces[-1].end_s == pytest.approx(model.duration_s)
+    # the body stands still exactly as long as scripted: 3 s, the 2 s pause, the final 1.5 s
+    still = model.standing_intervals_s
+    assert [round(b - a, 6) for a, b in still] == [3.0, 2.0, 1.5]
+    assert still[0][0] == 0.0 and still[-1][1] == pytest.approx(model.duration_s)
+    # in the timeline, walking runs from a bout's first initial contact to its last (the field's convention)
+    steps, _ = model.step_times_s()
+    bouts = model.bouts()
+    assert model.pieces[1].start_s == pytest.approx(steps[0]) == pytest.approx(bouts[0]["start_s"], abs=1e-3)
+    assert model.pieces[3].end_s == pytest.approx(bouts[0]["end_s"], abs=1e-3)
+    assert model.pieces[5].start_s == pytest.approx(bouts[1]["start_s"], abs=1e-3)
+    assert 0.2 < model.pieces[1].start_s - still[0][1] < 0.8  # weight shift, then the first contact
     assert 33.0 < model.duration_s < 40.0
     for a, b in zip(model.pieces[:-1], model.pieces[1:], strict=True):
         assert a.end_s == pytest.approx(b.start_s)
@@ -104,7 +111,8 @@ def test_standing_is_still_and_turning_turns(model) -> None:
     t = np.arange(0.0, model.duration_s, DT)
     activity, _ = model.timeline(t)
     rate = _world_yaw_rate_dps(model, t)
-    standing = activity == "standing"
+    standing = model.is_standing(t)
+    assert np.all(activity[standing] == "standing")
     assert standing.sum() > 5000
     assert np.abs(model.angular_velocity_rps(t[standing])).max() < 1e-9
     assert np.abs(model.acceleration_mps2(t[standing])).max() < 1e-9
@@ -152,8 +160,8 @@ def test_gait_initiation_and_termination_ramp_over_a_few_steps(model) -> None:
     amp = np.interp(s, t, up)
     assert amp[0] < 0.8 * np.median(amp[4:-4]) and amp[-1] < 0.8 * np.median(amp[4:-4])
     # the walk starts from standing: the first contact comes within a step of leaving the standing phase
-    walk = model.pieces[1]
-    assert walk.start_s < s[0] < walk.start_s + 0.8
+    onset = model.standing_intervals_s[0][1]
+    assert onset < s[0] < onset + 0.8
 
 
 def test_posture_change_takes_about_two_seconds() -> None:
@@ -221,7 +229,7 @@ def test_imu_sees_turns_and_stillness() -> None:
     imu = simulate_imu(m)
     activity, _ = m.timeline(imu.t_s)
     gyro = imu.gyroscope_rps - imu.gyroscope_bias_rps
-    standing = activity == "standing"
+    standing = m.is_standing(imu.t_s)
     assert np.abs(np.degrees(gyro[standing])).max() < 0.6  # noise only (0.1 deg/s rms)
     # while turning, the gyro turns through -180° about the (tilted, bobbing) vertical: integrate it
     turning = activity == "turning"

@@ -299,6 +299,7 @@ class GaitModel:
         object.__setattr__(self, "literal", literal)
         if literal:
             _build_session(self, script_segments)
+            self._align_pieces_to_contacts()
             _log.debug("session model %r seed %d: %.1f s, %d pieces", self.script, self.seed, self.duration_s,
                        len(self.pieces))
             return
@@ -325,6 +326,7 @@ class GaitModel:
         if self.stand_s > 0:
             pieces.append(TimelinePiece(t0, duration, "standing", ""))
         object.__setattr__(self, "pieces", tuple(pieces))
+        self._align_pieces_to_contacts()
         _log.debug("gait model %r seed %d: %.1f s, %d segments", self.script, self.seed, duration, len(params))
 
     # ----------------------------------------------------------------------------------------------- build
@@ -546,6 +548,28 @@ class GaitModel:
         }
 
     # ------------------------------------------------------------------------------------------ truth
+    def _align_pieces_to_contacts(self) -> None:
+        """Walking starts at a bout's first initial contact and stops at its last (the field's bout convention):
+        move each standing/stepping boundary of the timeline to that contact. The motion is not changed: the
+        weight shift before the first contact and the closing step after the last are standing in the truth."""
+        steps, _ = self.step_times_s()
+        pieces = list(self.pieces)
+        if steps.size == 0:
+            return
+        for i in range(len(pieces) - 1):
+            a, b = pieces[i], pieces[i + 1]
+            if a.activity == "standing" and b.activity != "standing":  # gait initiation
+                after = steps[steps > a.end_s]
+                if after.size and after[0] < b.end_s:
+                    t = float(after[0])
+                    pieces[i], pieces[i + 1] = replace(a, end_s=t), replace(b, start_s=t)
+            elif a.activity != "standing" and b.activity == "standing":  # gait termination
+                before = steps[steps < b.start_s]
+                if before.size and before[-1] > a.start_s:
+                    t = float(before[-1])
+                    pieces[i], pieces[i + 1] = replace(a, end_s=t), replace(b, start_s=t)
+        object.__setattr__(self, "pieces", tuple(pieces))
+
     def timeline(self, t_s: ArrayLike) -> tuple[NDArray[np.str_], NDArray[np.str_]]:
         """True ``(activity, label)`` at each time: activity in :data:`ACTIVITIES`, label the walk type while
         walking and ``""`` otherwise (a posture change switches the label in the middle of its transition)."""
