@@ -305,7 +305,9 @@ def main() -> int:
         f"{args.first_seed + video_seeds - 1} only)"
     env = (f"python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPUs, simulator version "
            f"{SIMULATOR_VERSION}, video {args.width}x{args.height} at {args.fps:g} fps{video_note}, "
-           f"{time.perf_counter() - t_start:.0f} s in all (load average {os.getloadavg()[0]:.1f})")
+           f"{time.perf_counter() - t_start:.0f} s in all"
+           f"{' (simulations and analyses reused from the cache)' if args.reuse_analysis else ''} "
+           f"(load average {os.getloadavg()[0]:.1f})")
     estimates = sorted({r["estimate"] for r in rows})
     md = [
         "# Unkind simulated sessions: activity, posture segments, cadence per bout",
