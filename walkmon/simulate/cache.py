@@ -56,7 +56,7 @@ def simulation_params(
         "video": bool(video),
         "stand_s": float(stand_s),
         "render": asdict(render_settings),
-        "imu": asdict(imu_settings),
+        "imu": imu_settings.to_dict(),  # the IMU error model's version and its parameters
     }
 
 
