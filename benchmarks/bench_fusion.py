@@ -1,21 +1,18 @@
-"""IMU / camera-IMU fusion benchmark: simulated walks (truth) and real IMU data (BROAD, optical truth).
+"""Camera-IMU fusion benchmark on simulated walks (truth), with the simulator's real-IMU error model.
 
-    python benchmarks/bench_fusion.py             # 4 walk types x 16 s x seeds 1-5 + both BROAD trials
+    python benchmarks/bench_fusion.py             # 4 walk types x 16 s x seeds 1-5
     python benchmarks/bench_fusion.py --sweep-weights   # the same, plus a grid of vision weightings (+5 min)
-    python benchmarks/bench_fusion.py --quick     # normal + bend, 8 s, seed 1, BROAD trials cut to 70 s
+    python benchmarks/bench_fusion.py --quick     # normal + bend, 8 s, seed 1
 
-(a) Simulated walks (``walkmon.simulate``: 640x480 30 fps mp4 + 200 Hz imu.csv with gyro bias and noise;
-cached under --cache, shared with bench_rotation.py). Raw RMSE (no detrending, start-relative, degrees) of
-pitch, yaw, roll against truth.csv for: vision alone (the ``fast`` rotation estimator on the video), IMU alone
-(walkmon's ESKF), and the fusion (ESKF + visual increments); each walk type with several seeds, and a count of
-the walk-axis pairs where the fusion beats each input. Also the gravity-referenced pitch_abs/roll_abs RMSE, the
-IMU-camera extrinsics/time-offset estimate (truth: identity, 0 s) with its residual, and VQF on the same
-imu.csv (online, offline, and online with a 0.5 s rest detection) with its pitch error at the start and the
-end of walking (the diagnosis of its ~1-2 deg pitch error on walks).
-(b) BROAD (Laidig et al. 2021, CC BY 4.0, ../shared/data/broad or --broad): inclination error (angle between
-estimated and optical gravity direction in the sensor frame) RMSE over the ``movement`` samples, for walkmon's
-ESKF (walking defaults; the hand-held preset, causal, which ``--imu-filter eskf-handheld`` uses; the same with
-the offline RTS smoother), VQF (online and offline) and imufusion (Fusion AHRS, default settings).
+Simulated walks (``walkmon.simulate``: 640x480 30 fps mp4 + 200 Hz imu.csv with a real part's errors: interval
+means, scale and misalignment, bias random walk, vibration; cached under --cache keyed by the IMU model's version
+and parameters). Raw RMSE (no detrending, start-relative, degrees) of pitch, yaw, roll against truth.csv for:
+vision alone (the ``fast`` rotation estimator on the video), IMU alone (the default attitude core, VQF), and the
+fusion (walkmon's error-state filter on top of the core + visual increments); each walk type with several
+seeds, and a count of the walk-axis pairs where the fusion beats each input. Also the gravity-referenced
+pitch_abs/roll_abs RMSE, the IMU-camera extrinsics/time-offset estimate (truth: identity, 0 s) with its
+residual, and VQF variants on the same imu.csv with its pitch error at the start and the end of walking.
+Real IMU data (BROAD) is benchmarks/bench_broad.py's.
 
 Prints the tables and writes benchmarks/results/fusion.md and fusion.json.
 """
@@ -37,7 +34,6 @@ from walkmon.consts import (
     gravity_angles_deg_from_gravity,
     rotation_from_angles_deg,
 )
-from walkmon.imu.attitude import HANDHELD_ATTITUDE_SETTINGS, estimate_attitude
 from walkmon.imu.extrinsics import estimate_extrinsics
 from walkmon.imu.fusion import FusionSettings, fuse_recording
 from walkmon.imu.recordings import rotation_matrices_from_quaternions_wxyz, vqf_attitude
@@ -59,7 +55,8 @@ WEIGHT_GRID = [
 
 
 def simulated(walk: str, seconds: float, seed: int, cache: Path) -> Path:
-    """The clip, cached under a key of the simulator version and every parameter (shared with bench_rotation)."""
+    """The clip, cached under a key of the simulator version and every parameter, the IMU model's included
+    (shared with bench_rotation)."""
     from walkmon.simulate.cache import cached_simulation  # noqa: PLC0415
 
     t0 = time.perf_counter()
@@ -72,9 +69,9 @@ def simulated(walk: str, seconds: float, seed: int, cache: Path) -> Path:
 def vision(d: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Frame times, start-relative rotations and 'measured' flags from the fast rotation estimator."""
     import cv2  # noqa: PLC0415
-    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
 
     from walkmon.camera.model import read_camera_yaml  # noqa: PLC0415
+    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
 
     cv2.setNumThreads(1)
@@ -166,26 +163,26 @@ def bench_walk(walk: str, seconds: float, seed: int, cache: Path, sweep: bool = 
         "visual_increments_rejected": int(fused.frames_rejected),
         "rmse_deg": {
             "vision": rmse_axes(vis, truth),
-            "imu_eskf": rmse_axes(imu_only.angles_deg, truth),
+            "imu": rmse_axes(imu_only.angles_deg, truth),
             "fused": rmse_axes(fused.angles_deg, truth),
         },
         "abs_rmse_deg": {
-            "imu_eskf": rmse_axes(np.c_[imu_only.abs_angles_deg[:, 0], 0 * t_truth, imu_only.abs_angles_deg[:, 1]], np.c_[truth_abs[:, 0], 0 * t_truth, truth_abs[:, 1]])[::2],
+            "imu": rmse_axes(np.c_[imu_only.abs_angles_deg[:, 0], 0 * t_truth, imu_only.abs_angles_deg[:, 1]], np.c_[truth_abs[:, 0], 0 * t_truth, truth_abs[:, 1]])[::2],
             "fused": rmse_axes(np.c_[fused.abs_angles_deg[:, 0], 0 * t_truth, fused.abs_angles_deg[:, 1]], np.c_[truth_abs[:, 0], 0 * t_truth, truth_abs[:, 1]])[::2],
         },
         "rmse_deg_no_still_start": {
             "vision": rmse_axes(vis_cut, truth_cut),
-            "imu_eskf": rmse_axes(imu_cut.angles_deg, truth_cut),
+            "imu": rmse_axes(imu_cut.angles_deg, truth_cut),
             "fused": rmse_axes(fused_cut.angles_deg, truth_cut),
         },
         "vqf": vqf_rows,
         "extrinsics": {**ext.to_dict(), "truth_rotation_deg": 0.0, "truth_time_offset_s": 0.0},
-        "seconds_cpu": {"vision_decode_and_estimate": round(t_vision, 2), "imu_eskf": round(t_imu, 2), "fused": round(t_fused, 2)},
+        "seconds_cpu": {"vision_decode_and_estimate": round(t_vision, 2), "imu": round(t_imu, 2), "fused": round(t_fused, 2)},
     }
     fps = (len(ft) - 1) / max(ft[-1] - ft[0], 1e-9)
     row["error_split_deg"] = {
         "vision": error_split(vis, truth, fps),
-        "imu_eskf": error_split(imu_only.angles_deg, truth, fps),
+        "imu": error_split(imu_only.angles_deg, truth, fps),
         "fused": error_split(fused.angles_deg, truth, fps),
     }
     if sweep:
@@ -199,9 +196,9 @@ def bench_walk(walk: str, seconds: float, seed: int, cache: Path, sweep: bool = 
     targets = [TARGET_PR_DEG, TARGET_YAW_DEG, TARGET_PR_DEG]
     row["meets_abs_target"] = [bool(r["fused"][k] <= targets[k]) for k in range(3)]
     row["beats_vision"] = [bool(r["fused"][k] < r["vision"][k]) for k in range(3)]
-    row["beats_imu"] = [bool(r["fused"][k] < r["imu_eskf"][k]) for k in range(3)]
+    row["beats_imu"] = [bool(r["fused"][k] < r["imu"][k]) for k in range(3)]
     c = row["rmse_deg_no_still_start"]
-    row["no_still_start_beats_imu"] = [bool(c["fused"][k] < c["imu_eskf"][k]) for k in range(3)]
+    row["no_still_start_beats_imu"] = [bool(c["fused"][k] < c["imu"][k]) for k in range(3)]
     return row
 
 
@@ -229,55 +226,7 @@ def load_broad(path: Path, max_seconds: float | None) -> dict:
         "name": path.stem, "t": np.arange(len(gyr)) / rate, "gyr": gyr, "acc": acc, "rate": rate,
         "valid": movement & np.all(np.isfinite(quat), axis=1),
         "down_true": -rotation_matrices_from_quaternions_wxyz(np.nan_to_num(quat, nan=1.0))[:, 2, :],
-    }
-
-
-def bench_broad(path: Path, max_seconds: float | None) -> dict:
-    trial = load_broad(path, max_seconds)
-    t, gyr, acc, rate, valid, down_true = (trial[k] for k in ("t", "gyr", "acc", "rate", "valid", "down_true"))
-    results: dict[str, dict] = {}
-
-    def record(name: str, down: np.ndarray, seconds: float) -> None:
-        e = inclination_deg(down[valid], down_true[valid])
-        results[name] = {"rmse_deg": float(np.sqrt(np.mean(e**2))), "max_deg": float(e.max()), "seconds": round(seconds, 2)}
-
-    t0 = time.perf_counter()
-    track = estimate_attitude(t, gyr, acc)
-    record("walkmon ESKF", track.gravity_down, time.perf_counter() - t0)
-    t0 = time.perf_counter()
-    track = estimate_attitude(t, gyr, acc, HANDHELD_ATTITUDE_SETTINGS)
-    record("walkmon ESKF handheld", track.gravity_down, time.perf_counter() - t0)
-    t0 = time.perf_counter()
-    track = estimate_attitude(t, gyr, acc, HANDHELD_ATTITUDE_SETTINGS, smooth=True)
-    record("walkmon ESKF handheld smoothed", track.gravity_down, time.perf_counter() - t0)
-    t0 = time.perf_counter()
-    _, down = vqf_attitude(gyr, acc, rate, offline=False)
-    record("vqf (online)", down, time.perf_counter() - t0)
-    t0 = time.perf_counter()
-    _, down = vqf_attitude(gyr, acc, rate, offline=True)
-    record("vqf (offline)", down, time.perf_counter() - t0)
-    import imufusion  # noqa: PLC0415
-
-    t0 = time.perf_counter()
-    ahrs = imufusion.Ahrs()
-    ahrs.set_sample_period(1.0 / rate)
-    q = np.empty((len(gyr), 4))
-    gyr_dps, acc_g = np.degrees(gyr), acc / 9.81
-    for i in range(len(gyr)):
-        ahrs.update_no_magnetometer(gyr_dps[i], acc_g[i])
-        q[i] = ahrs.get_quaternion()
-    record("imufusion", -rotation_matrices_from_quaternions_wxyz(q)[:, 2, :], time.perf_counter() - t0)
-    handheld = results["walkmon ESKF handheld"]["rmse_deg"]
-    smoothed = results["walkmon ESKF handheld smoothed"]["rmse_deg"]
-    return {
-        "trial": path.stem,
-        "seconds": round(float(t[-1]), 1),
-        "movement_samples": int(valid.sum()),
-        "filters": results,
-        "handheld_online_no_worse_than_vqf_online_and_imufusion": bool(
-            handheld <= results["vqf (online)"]["rmse_deg"] and handheld <= results["imufusion"]["rmse_deg"]
-        ),
-        "handheld_smoothed_no_worse_than_vqf_offline": bool(smoothed <= results["vqf (offline)"]["rmse_deg"]),
+        "down_true_raw": np.where(np.all(np.isfinite(quat), axis=1, keepdims=True), 0.0, np.nan) * np.ones((1, 3)),
     }
 
 
@@ -293,20 +242,20 @@ def tables(walk_rows: list[dict], broad_rows: list[dict]) -> str:
         f"Targets for the fusion: pitch and roll <= {TARGET_PR_DEG}, yaw <= {TARGET_YAW_DEG}, and lower than vision"
         " alone and IMU alone on each axis.",
         "",
-        "| walk | seed | vision (fast) | IMU ESKF | fused | abs pitch/roll fused | fused < vision | fused < IMU | extrinsics rot err, offset, residual |",
+        "| walk | seed | vision (fast) | IMU alone (vqf core) | fused | abs pitch/roll fused | fused < vision | fused < IMU | extrinsics rot err, offset, residual |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in walk_rows:
         m, x = r["rmse_deg"], r["extrinsics"]
         lines.append(
-            f"| {r['walk']} {r['seconds']:g} s | {r['seed']} | {fmt(m['vision'])} | {fmt(m['imu_eskf'])} | "
+            f"| {r['walk']} {r['seconds']:g} s | {r['seed']} | {fmt(m['vision'])} | {fmt(m['imu'])} | "
             f"**{fmt(m['fused'])}** | {fmt(r['abs_rmse_deg']['fused'])} | {yes(r['beats_vision'])} | {yes(r['beats_imu'])} | "
             f"{x['rotation_deg']:.2f} deg, {1000 * x['time_offset_s']:.1f} ms, {x['residual_deg_s']:.2f} deg/s |"
         )
     n = len(walk_rows)
     count = lambda key: [sum(r[key][k] for r in walk_rows) for k in range(3)]  # noqa: E731
     worst = np.max([r["rmse_deg"]["fused"] for r in walk_rows], axis=0) if walk_rows else np.zeros(3)
-    mean = {k: np.mean([r["rmse_deg"][k] for r in walk_rows], axis=0) for k in ("vision", "imu_eskf", "fused")} if walk_rows else {}
+    mean = {k: np.mean([r["rmse_deg"][k] for r in walk_rows], axis=0) for k in ("vision", "imu", "fused")} if walk_rows else {}
     lines += [
         "",
         "(y/n per axis pitch, yaw, roll. Extrinsics: estimated IMU-camera rotation angle (truth 0), time offset (truth 0),",
@@ -318,7 +267,7 @@ def tables(walk_rows: list[dict], broad_rows: list[dict]) -> str:
     ]
     if mean:
         lines.append(
-            f"Mean RMSE: vision {fmt(list(mean['vision']))}, IMU {fmt(list(mean['imu_eskf']))}, fused {fmt(list(mean['fused']))}."
+            f"Mean RMSE: vision {fmt(list(mean['vision']))}, IMU {fmt(list(mean['imu']))}, fused {fmt(list(mean['fused']))}."
         )
         both = [sum(r["beats_vision"][k] and r["beats_imu"][k] for r in walk_rows) for k in range(3)]
         lines.append(f"Fused < both vision and IMU alone: {'/'.join(str(c) for c in both)} of {n} runs (pitch/yaw/roll).")
@@ -331,7 +280,7 @@ def tables(walk_rows: list[dict], broad_rows: list[dict]) -> str:
             "| source | slow | fast |",
             "|---|---|---|",
         ]
-        for key, label in (("vision", "vision (fast)"), ("imu_eskf", "IMU ESKF"), ("fused", "fused")):
+        for key, label in (("vision", "vision (fast)"), ("imu", "IMU alone (vqf core)"), ("fused", "fused")):
             slow = np.mean([r["error_split_deg"][key]["slow"] for r in walk_rows], axis=0)
             fast = np.mean([r["error_split_deg"][key]["fast"] for r in walk_rows], axis=0)
             lines.append(f"| {label} | {fmt(list(slow))} | {fmt(list(fast))} |")
@@ -347,10 +296,10 @@ def tables(walk_rows: list[dict], broad_rows: list[dict]) -> str:
         ]
         for i, g in enumerate(WEIGHT_GRID):
             rs = [np.array(r["weight_sweep"][i]["rmse_deg"]) for r in walk_rows]
-            below_imu = sum(int(np.sum(x < np.array(r["rmse_deg"]["imu_eskf"]))) for x, r in zip(rs, walk_rows))
-            below_vis = sum(int(np.sum(x < np.array(r["rmse_deg"]["vision"]))) for x, r in zip(rs, walk_rows))
-            below_both = sum(int(np.sum((x < np.array(r["rmse_deg"]["imu_eskf"])) & (x < np.array(r["rmse_deg"]["vision"]))))
-                             for x, r in zip(rs, walk_rows))
+            below_imu = sum(int(np.sum(x < np.array(r["rmse_deg"]["imu"]))) for x, r in zip(rs, walk_rows, strict=True))
+            below_vis = sum(int(np.sum(x < np.array(r["rmse_deg"]["vision"]))) for x, r in zip(rs, walk_rows, strict=True))
+            below_both = sum(int(np.sum((x < np.array(r["rmse_deg"]["imu"])) & (x < np.array(r["rmse_deg"]["vision"]))))
+                             for x, r in zip(rs, walk_rows, strict=True))
             lines.append(f"| {g['visual_std_deg']:g} | {g['visual_drift_std_deg_s']:g} | {g['visual_scale_std']:g} | "
                          f"{below_imu} | {below_vis} | {below_both} | {fmt(list(np.mean(rs, axis=0)))} |")
     lines += [
@@ -358,13 +307,13 @@ def tables(walk_rows: list[dict], broad_rows: list[dict]) -> str:
         f"Same walks cut to start {STANDING_CUT_S:g} s in, mid-walk (no still period: the gyroscope bias must be learnt",
         "while moving), raw RMSE pitch / yaw / roll (deg):",
         "",
-        "| walk | seed | vision (fast) | IMU ESKF | fused | fused < IMU |",
+        "| walk | seed | vision (fast) | IMU alone (vqf core) | fused | fused < IMU |",
         "|---|---|---|---|---|---|",
     ]
     for r in walk_rows:
         m = r["rmse_deg_no_still_start"]
         lines.append(
-            f"| {r['walk']} | {r['seed']} | {fmt(m['vision'])} | {fmt(m['imu_eskf'])} | **{fmt(m['fused'])}** | "
+            f"| {r['walk']} | {r['seed']} | {fmt(m['vision'])} | {fmt(m['imu'])} | **{fmt(m['fused'])}** | "
             f"{yes(r['no_still_start_beats_imu'])} |"
         )
     lines += [
@@ -384,50 +333,18 @@ def tables(walk_rows: list[dict], broad_rows: list[dict]) -> str:
         )
     lines += [
         "",
-        "### (b) BROAD real IMU trials (Laidig et al. 2021, CC BY 4.0): inclination RMSE over movement (deg)",
-        "",
-        "walkmon's backend for hand-held data is its own ESKF with the hand-held preset (`--imu-filter eskf-handheld`);",
-        "causal filters are compared with causal ones, the offline smoother with offline VQF.",
-        "",
-        "| trial | walkmon ESKF (walking defaults) | walkmon ESKF hand-held (chosen backend, causal) | walkmon ESKF hand-held + RTS smoother (offline) | vqf (online) | vqf (offline) | imufusion | hand-held <= vqf online and imufusion | smoothed <= vqf offline |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for b in broad_rows:
-        f = b["filters"]
-        lines.append(
-            f"| {b['trial']} ({b['seconds']:g} s) | {f['walkmon ESKF']['rmse_deg']:.3f} | "
-            f"**{f['walkmon ESKF handheld']['rmse_deg']:.3f}** | {f['walkmon ESKF handheld smoothed']['rmse_deg']:.3f} | "
-            f"{f['vqf (online)']['rmse_deg']:.3f} | {f['vqf (offline)']['rmse_deg']:.3f} | {f['imufusion']['rmse_deg']:.3f} | "
-            f"{'yes' if b['handheld_online_no_worse_than_vqf_online_and_imufusion'] else 'no'} | "
-            f"{'yes' if b['handheld_smoothed_no_worse_than_vqf_offline'] else 'no'} |"
-        )
-    lines += [
-        "",
         "Notes.",
-        "- Fusion vs the IMU alone: the fast estimator's frame-to-frame increments are ~0.007-0.011 deg (roll the",
-        "  worst) against the gyro's ~0.0013 deg over a frame, and over seconds they carry a 0.3-0.8 % scale error and",
-        "  0.005-0.015 deg/s drift against truth, so on walks that start still (bias known to ~0.005 deg/s) the vision",
-        "  adds little: the filter weights increments at 0.05 deg (0.1 about the optical axis) and estimates the",
-        "  visual drift rate and scale. Where fused and IMU differ by <= 0.002 deg the y/n is noise. Vision matters",
-        "  where the bias is unknown (mid-walk starts: 0.02 deg while the bias std is > 0.05 deg/s).",
-        "- Tried and not adopted for walks: 1 s visual windows with clones (seed 1: yaw 0.04-0.09 deg vs IMU 0.01,",
-        "  the visual drift pulls the bias), an offline RTS smoother (seeds 1-2: IMU-only roll 0.032 vs 0.029 mean;",
-        "  it stays available as FusionSettings(offline_smoother=True) and estimate_attitude(smooth=True)).",
-        "- VQF's 1-2 deg pitch error on walks is not a frame convention problem (remapping the y-down camera axes to",
-        "  z-up gives identical angles): its accelerometer is low-passed over tauAcc = 3 s in the inertial frame, so",
-        "  the 0.75-1.3 m/s change of forward speed when walking starts and stops reads as tilt (pitch error +1 to +2.5 deg",
-        "  1 s after starting, -1 to -1.9 deg standing at the end, table above); its yaw error is the bias learnt from only",
-        "  0.5 s of detected rest (restMinT 1.5 s of a 2 s still start; restMinT 0.5 s: yaw 1.0 -> 0.4 deg).",
-        "- Why fused < IMU alone is not met on every axis-run: the IMU's error is almost all slow (the table above:",
-        "  the gyro bias learnt in 2 s of standing, ~0.005 deg/s, integrated and only slowly pulled back by gravity), and",
-        "  the vision's slow error is larger (0.3-0.8 % scale error, 0.003-0.015 deg/s drift) while its fast error is 4x",
-        "  the IMU's. The vision therefore has no band where it is the better source for pitch and roll, and how it is",
-        "  weighted barely moves the counts (`--sweep-weights`). Tried in earlier sessions and not adopted: 1 s visual",
-        "  windows, the offline RTS smoother for walks, firmer gravity at rest (all worse on at least as many runs).",
-        "- BROAD: the hand-held preset was chosen by looking at these two trials; benchmarks/bench_broad_cv.py chooses",
-        "  the settings on one trial and measures them on the other (results/broad-cv.md): still below vqf online and",
-        "  imufusion on both. The largest gain is not tuning but reading gyro samples as interval means",
-        "  (`gyroscope_rule='backward'`, trial 7 first 90 s: 1.9 -> 1.2 deg).",
+        "- IMU alone is the default attitude core, VQF (online, 6-D, default parameters; chosen on the real BROAD",
+        "  trials, benchmarks/results/broad.md). On walks its accelerometer low-pass (tauAcc 3 s) takes the start and",
+        "  stop of walking for tilt (pitch error of 1-2 deg, table above) and it learns the gyro bias from only 0.5 s of",
+        "  a 2 s still start (restMinT 1.5 s): that is its ~1 deg pitch and yaw here.",
+        "- Fused: walkmon's error-state filter propagates with the gyroscope, takes the core's gravity as a slow tilt",
+        "  measurement (10 Hz, 1 deg correlated over tauAcc), zero-rate updates while the core detects rest, and the",
+        "  visual increments (0.05 deg per frame, visual drift rate and scale estimated); gravity updates are gated,",
+        "  and after 3 s of rejection the tilt is reset to the core's gravity (counted; 0 on these walks).",
+        "- The simulated IMU has a real part's errors (walkmon/simulate/imu.py, model version in the cache key):",
+        "  interval-mean samples, 0.5 % scale and 0.005 rad misalignment per sensor, a gyro bias random walk and",
+        "  footstep vibration. abs pitch/roll carry the accelerometer's bias and misalignment (walkmon calibrate-imu).",
     ]
     return "\n".join(lines) + "\n"
 
@@ -460,10 +377,7 @@ def main(argv: list[str] | None = None) -> int:
         for seed in seeds:
             sys.stderr.write(f"walk {w} seed {seed} ...\n")
             walk_rows.append(bench_walk(w, seconds, seed, cache, sweep=args.sweep_weights))
-    broad_rows = []
-    for path in sorted(Path(args.broad).glob("*.hdf5")):
-        sys.stderr.write(f"BROAD {path.name} ...\n")
-        broad_rows.append(bench_broad(path, 70.0 if args.quick else None))
+    broad_rows: list[dict] = []  # real IMU data: benchmarks/bench_broad.py
     text = tables(walk_rows, broad_rows)
     sys.stdout.write(text)
     if not args.no_write:
