@@ -54,23 +54,14 @@ WEIGHT_GRID = [
 ]
 
 
-def simulator_key() -> str:
-    """The simulator's IMU model version and parameters (cached walks are regenerated when they change)."""
-    import hashlib  # noqa: PLC0415
-
-    from walkmon.simulate.imu import DEFAULT_IMU_SETTINGS, IMU_MODEL_VERSION  # noqa: PLC0415
-
-    params = json.dumps(DEFAULT_IMU_SETTINGS.to_dict(), sort_keys=True)
-    return f"imu-v{IMU_MODEL_VERSION}-{hashlib.sha1(params.encode()).hexdigest()[:8]}"
-
-
 def simulated(walk: str, seconds: float, seed: int, cache: Path) -> Path:
-    d = cache / f"{walk}_{seconds:g}s_pinhole_seed{seed}_{simulator_key()}"
-    if not all((d / f).is_file() for f in ("video.mp4", "truth.csv", "imu.csv", "camera.yaml")):
-        from walkmon.simulate import simulate  # noqa: PLC0415
+    """The clip, cached under a key of the simulator version and every parameter, the IMU model's included
+    (shared with bench_rotation)."""
+    from walkmon.simulate.cache import cached_simulation  # noqa: PLC0415
 
-        t0 = time.perf_counter()
-        simulate(d, walk=walk, seconds=seconds, seed=seed)
+    t0 = time.perf_counter()
+    d = cached_simulation(cache, walk=walk, seconds=seconds, seed=seed)
+    if time.perf_counter() - t0 > 1.0:
         sys.stderr.write(f"  simulated {d.name} in {time.perf_counter() - t0:.0f} s\n")
     return d
 

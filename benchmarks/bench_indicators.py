@@ -42,12 +42,12 @@ def _angles(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run_one(work: Path, walk: str, seed: int, args: argparse.Namespace) -> dict:
-    from walkmon.simulate.session import simulate  # noqa: PLC0415
+    from walkmon.simulate.cache import cached_simulation  # noqa: PLC0415
 
-    session = work / f"{walk}-s{seed}-{args.width}x{args.height}-{args.seconds:g}s"
     t0 = time.perf_counter()
-    if not (session / "meta.json").is_file() or not (session / "video.mp4").is_file():
-        simulate(session, walk, args.seconds, seed, args.width, args.height)
+    # keyed by the simulator version and every parameter: a changed simulator never serves an old clip
+    session = cached_simulation(work, walk=walk, seconds=args.seconds, seed=seed, width=args.width,
+                                height=args.height)
     t_sim = time.perf_counter() - t0
     est_dir = session / f"est-{args.method}"
     t0 = time.perf_counter()

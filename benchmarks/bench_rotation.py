@@ -63,25 +63,25 @@ def walks(args: argparse.Namespace) -> list[dict]:
 
 
 def simulated(spec: dict, cache: Path, seed: int) -> Path:
-    d = cache / f"{spec['walk']}_{spec['seconds']:g}s_{'dist' if spec['distortion'] else 'pinhole'}_seed{seed}"
-    if not (d / "video.mp4").is_file() or not (d / "truth.csv").is_file():
-        from walkmon.simulate import simulate  # noqa: PLC0415
+    """The clip of ``spec``, cached under a key of the simulator version and every parameter."""
+    from walkmon.simulate.cache import cached_simulation  # noqa: PLC0415
 
-        t0 = time.perf_counter()
-        simulate(d, walk=spec["walk"], seconds=spec["seconds"], seed=seed, distortion=spec["distortion"])
+    t0 = time.perf_counter()
+    d = cached_simulation(cache, walk=spec["walk"], seconds=spec["seconds"], seed=seed, distortion=spec["distortion"])
+    if time.perf_counter() - t0 > 1.0:
         sys.stderr.write(f"  simulated {d.name} in {time.perf_counter() - t0:.0f} s\n")
     return d
 
 
 def simulated_sized(walk: str, seconds: float, seed: int, size: tuple[int, int], cache: Path) -> Path:
-    """A pinhole clip of ``walk`` at ``size`` (width, height), simulated once and cached."""
-    w, h = size
-    d = cache / f"{walk}_{seconds:g}s_{w}x{h}_seed{seed}"
-    if not (d / "video.mp4").is_file() or not (d / "truth.csv").is_file():
-        from walkmon.simulate import simulate  # noqa: PLC0415
+    """A pinhole clip of ``walk`` at ``size`` (width, height), simulated once and cached (key: simulator version
+    and every parameter)."""
+    from walkmon.simulate.cache import cached_simulation  # noqa: PLC0415
 
-        t0 = time.perf_counter()
-        simulate(d, walk=walk, seconds=seconds, seed=seed, width=w, height=h)
+    w, h = size
+    t0 = time.perf_counter()
+    d = cached_simulation(cache, walk=walk, seconds=seconds, seed=seed, width=w, height=h)
+    if time.perf_counter() - t0 > 1.0:
         sys.stderr.write(f"  simulated {d.name} in {time.perf_counter() - t0:.0f} s\n")
     return d
 

@@ -29,13 +29,14 @@ def script_seconds(walk: str) -> float | None:
     parts = [p.strip() for p in walk.split(",")]
     total = 0.0
     for p in parts:
-        m = re.fullmatch(r"[A-Za-z_]+(?::(\d+(?:\.\d+)?))?", p)
+        m = re.fullmatch(r"([A-Za-z_]+)(?::([+-]?\d+(?:\.\d+)?))?(?::(\d+(?:\.\d+)?))?", p)
         if not m:
-            msg = f"sim: bad walk script part {p!r} (expected name or name:seconds)"
+            msg = f"sim: bad walk script part {p!r} (expected name, name:seconds or turn:degrees[:seconds])"
             raise ConfigError(msg)
-        if m.group(1) is None:
+        if m.group(2) is None:
             return None
-        total += float(m.group(1))
+        if m.group(1).lower() != "turn":  # a turn's number is its angle (the simulator checks the script)
+            total += float(m.group(2))
     return total or None
 
 

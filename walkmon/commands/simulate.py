@@ -10,7 +10,10 @@ HELP = "simulate a chest-camera walk: video.mp4, truth.csv, imu.csv, camera.yaml
 
 _WALK_HELP = (
     "walk type (normal, left_shoulder_down, right_foot_drag, bend) lasting --seconds, or a script of "
-    "TYPE:SECONDS segments such as normal:10,bend:10 (stand:S pauses); 2 s of standing start and end every session"
+    "TYPE:SECONDS segments such as normal:10,bend:10 (stand:S pauses); 2 s of standing start and end every session, "
+    "except in session scripts, taken literally: those with turn:DEGREES[:SECONDS] (> 0 right) or pause:SECONDS "
+    "segments, e.g. stand:3,normal:10,turn:180,normal:8,pause:2,bend:10 (starts standing, ends mid-walk); "
+    "with --unkind, the walk type a random unkind session is built around"
 )
 
 
@@ -63,15 +66,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rolling-shutter-ms", type=float, default=0.0, metavar="MS",
                    help="rolling-shutter readout time top to bottom, 0-100 ms (default 0: global shutter)")
     p.add_argument("--no-video", action="store_true", help="write truth, IMU, camera and meta only (fast)")
+    p.add_argument("--unkind", action="store_true",
+                   help="a random session as unkind as life, drawn from --seed around the --walk type: random "
+                        "standing or mid-walk start and end, pauses, 90/180 degree turns, gait initiation and "
+                        "termination, a posture change mid-walk (the script is printed and kept in meta.json)")
 
 
 def run(args: argparse.Namespace) -> int:
     from walkmon.simulate import RenderSettings, simulate  # noqa: PLC0415
 
     settings = RenderSettings(rolling_shutter_s=args.rolling_shutter_ms / 1000.0)
+    walk = args.walk
+    if args.unkind:
+        from walkmon.simulate.unkind import unkind_script  # noqa: PLC0415
+
+        walk = unkind_script(args.seed, args.walk)
     result = simulate(
         args.out,
-        walk=args.walk,
+        walk=walk,
         seconds=args.seconds,
         seed=args.seed,
         width=args.width,
@@ -83,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
     )
     what = f"{result.n_frames} frames rendered in {result.render_time_s:.1f} s" if result.video_path else "no video"
     sys.stdout.write(
-        f"simulated {args.walk!r} seed {args.seed}: {result.duration_s:.2f} s at {result.fps:g} fps "
+        f"simulated {walk!r} seed {args.seed}: {result.duration_s:.2f} s at {result.fps:g} fps "
         f"({result.camera.width_px}x{result.camera.height_px}), {what} -> {result.out_dir}\n"
     )
     return 0

@@ -15,6 +15,14 @@ and accelerations are continuous:
 * harmonics on both, per-step amplitude variability, and a slow, smooth heading wander (the walker follows
   a gently curving line along the street, so the lateral offset stays within about a metre).
 
+*Session scripts* (a script with ``turn:DEG`` or ``pause:S`` segments, or any script with ``stand_s = 0``) are taken
+literally instead: no standing is added, a session that begins (ends) with a walk type starts (stops) mid-walk,
+every start from standing is a gait initiation (cadence and amplitude ramp up over the first 2-3 steps) and every
+stop a gait termination (the same, down), turns rotate the heading while stepping, and posture changes between
+walk types take about 2 s. Their truth (activity and label per time, initial contacts, bouts) comes from
+:meth:`GaitModel.timeline`, :meth:`GaitModel.step_times_s` and :meth:`GaitModel.bouts`; see
+:mod:`walkmon.simulate.unkind` for the random "unkind session" generator.
+
 The physical orientation is ``R = Ry(heading + yaw) Rx(pitch) Rz(roll)`` (turn about the vertical, then lean the
 trunk); the truth angles are its decomposition with :func:`walkmon.consts.angles_deg_from_rotation`.
 """
@@ -23,7 +31,7 @@ from __future__ import annotations
 
 import logging
 import re
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -34,11 +42,15 @@ from walkmon.consts import angles_deg_from_rotation, rot_x, rot_y, rot_z
 from walkmon.errors import InvalidInputError
 
 __all__ = [
+    "ACTIVITIES",
+    "SESSION_TOKENS",
     "STANDING_S",
     "WALK_TYPES",
     "GaitModel",
     "Segment",
     "SegmentParams",
+    "TimelinePiece",
+    "is_session_script",
     "parse_walk_script",
 ]
 
@@ -46,6 +58,16 @@ _log = logging.getLogger(__name__)
 
 #: Walk types a script may name ("stand" is an extra standing-still pause inside a script).
 WALK_TYPES = ("normal", "left_shoulder_down", "right_foot_drag", "bend", "stand")
+
+#: Script tokens that make a script a literal *session script*: ``turn:DEGREES[:SECONDS]`` (> 0 turns right) and
+#: ``pause:SECONDS`` (standing still between two walks, like ``stand``).
+SESSION_TOKENS = ("turn", "pause")
+
+#: Activities of the truth timeline (``unknown`` is reserved: the simulator does not produce it yet).
+ACTIVITIES = ("standing", "walking", "turning", "unknown")
+
+#: Turn angles a script may ask for, degrees (absolute value).
+_TURN_LIMITS_DEG = (10.0, 360.0)
 
 #: Standing still at the start and at the end of every session, seconds.
 STANDING_S = 2.0
@@ -59,10 +81,27 @@ _HIP_TO_CAMERA_M = 0.45
 
 @dataclass(frozen=True, slots=True)
 class Segment:
-    """One scripted segment: a walk type and its duration in seconds (walking time, standing excluded)."""
+    """One scripted segment: a walk type and its duration in seconds (walking time, standing excluded).
+
+    ``turn`` segments carry their angle in ``turn_deg`` (> 0 right); their ``duration_s`` is 0 when the script
+    leaves it to the model (drawn from a turning rate of 60-90 °/s on average).
+    """
 
     walk: str
     duration_s: float
+    turn_deg: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class TimelinePiece:
+    """A stretch of the true timeline: ``activity`` (see :data:`ACTIVITIES`) and the posture ``label`` (the walk
+    type while walking, empty otherwise) over ``[start_s, end_s)``; ``turn_deg`` for a turn."""
+
+    start_s: float
+    end_s: float
+    activity: str
+    label: str
+    turn_deg: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,10 +132,37 @@ class SegmentParams:
 
 
 _SEGMENT_RE = re.compile(r"^([a-z_]+)(?::([0-9]*\.?[0-9]+))?$")
+_TURN_RE = re.compile(r"^turn:([+-]?[0-9]*\.?[0-9]+)(?::([0-9]*\.?[0-9]+))?$")
+
+
+def is_session_script(segments: list[Segment], stand_s: float = STANDING_S) -> bool:
+    """True when the script is taken literally (it has turns or pauses, or no standing is added at the ends)."""
+    return stand_s == 0 or any(seg.walk in SESSION_TOKENS for seg in segments)
+
+
+def _parse_turn(script: str, part: str) -> Segment:
+    m = _TURN_RE.match(part)
+    if not m:
+        msg = (f"walk script {script!r}: cannot parse segment {part!r} "
+               "(expected turn:DEGREES or turn:DEGREES:SECONDS, degrees > 0 turn right)")
+        raise InvalidInputError(msg)
+    deg = float(m.group(1))
+    lo, hi = _TURN_LIMITS_DEG
+    if not lo <= abs(deg) <= hi:
+        msg = f"walk script {script!r}: turn angle {deg:g} must be between {lo:g} and {hi:g} degrees (either sign)"
+        raise InvalidInputError(msg)
+    dur = 0.0
+    if m.group(2) is not None:
+        dur = float(m.group(2))
+        if not 0.3 <= dur <= 20.0:
+            msg = f"walk script {script!r}: turn duration {dur:g} s must be between 0.3 and 20 s"
+            raise InvalidInputError(msg)
+    return Segment("turn", dur, deg)
 
 
 def parse_walk_script(script: str, seconds: float | None = None, *, stand_s: float = STANDING_S) -> list[Segment]:
-    """Segments of a walk script such as ``"normal"`` or ``"normal:10,bend:10"``.
+    """Segments of a walk script such as ``"normal"``, ``"normal:10,bend:10"`` or a session script
+    ``"stand:3,normal:10,turn:180,normal:8,pause:2,bend:10,stand:1.5"`` (see :data:`SESSION_TOKENS`).
 
     A single walk type without a duration lasts ``seconds`` in total, standing included (so the session is
     ``seconds`` long: ``seconds - 2 * stand_s`` of walking). In a script with several segments each one needs
@@ -109,13 +175,17 @@ def parse_walk_script(script: str, seconds: float | None = None, *, stand_s: flo
     parts = [p.strip() for p in script.strip().lower().split(",")]
     segments: list[Segment] = []
     for part in parts:
+        if part.startswith("turn:") or part == "turn":
+            segments.append(_parse_turn(script, part))
+            continue
         m = _SEGMENT_RE.match(part)
         if not m:
             msg = f"walk script {script!r}: cannot parse segment {part!r} (expected TYPE or TYPE:SECONDS)"
             raise InvalidInputError(msg)
         walk, dur = m.group(1), m.group(2)
-        if walk not in WALK_TYPES:
-            msg = f"walk script {script!r}: unknown walk type {walk!r} (known: {', '.join(WALK_TYPES)})"
+        if walk not in WALK_TYPES and walk != "pause":
+            known = ", ".join((*WALK_TYPES, "pause", "turn"))
+            msg = f"walk script {script!r}: unknown walk type {walk!r} (known: {known})"
             raise InvalidInputError(msg)
         if dur is None:
             if len(parts) > 1:
@@ -213,6 +283,8 @@ class GaitModel:
     segments: tuple[SegmentParams, ...] = field(init=False)
     duration_s: float = field(init=False)
     standing_intervals_s: tuple[tuple[float, float], ...] = field(init=False)
+    literal: bool = field(init=False)
+    pieces: tuple[TimelinePiece, ...] = field(init=False)
     _splines: dict[str, CubicSpline] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -223,6 +295,14 @@ class GaitModel:
             msg = f"transition time must be in (0, 5] s, got {self.transition_s}"
             raise InvalidInputError(msg)
         script_segments = parse_walk_script(self.script, self.seconds, stand_s=self.stand_s)
+        literal = is_session_script(script_segments, self.stand_s)
+        object.__setattr__(self, "literal", literal)
+        if literal:
+            _build_session(self, script_segments)
+            self._align_pieces_to_contacts()
+            _log.debug("session model %r seed %d: %.1f s, %d pieces", self.script, self.seed, self.duration_s,
+                       len(self.pieces))
+            return
         rng = np.random.default_rng(self.seed)
         t0 = self.stand_s
         params = []
@@ -239,6 +319,14 @@ class GaitModel:
         object.__setattr__(self, "duration_s", float(duration))
         object.__setattr__(self, "standing_intervals_s", tuple(_merge_intervals(standing)))
         object.__setattr__(self, "_splines", self._build(rng))
+        pieces = [TimelinePiece(0.0, self.stand_s, "standing", "")] if self.stand_s > 0 else []
+        for p in params:
+            pieces.append(TimelinePiece(p.start_s, p.end_s, "walking" if p.walking else "standing",
+                                        p.walk if p.walking else ""))
+        if self.stand_s > 0:
+            pieces.append(TimelinePiece(t0, duration, "standing", ""))
+        object.__setattr__(self, "pieces", tuple(pieces))
+        self._align_pieces_to_contacts()
         _log.debug("gait model %r seed %d: %.1f s, %d segments", self.script, self.seed, duration, len(params))
 
     # ----------------------------------------------------------------------------------------------- build
@@ -459,6 +547,105 @@ class GaitModel:
             "segments": [p.to_dict() for p in self.segments],
         }
 
+    # ------------------------------------------------------------------------------------------ truth
+    def _align_pieces_to_contacts(self) -> None:
+        """Walking starts at a bout's first initial contact and stops at its last (the field's bout convention):
+        move each standing/stepping boundary of the timeline to that contact. The motion is not changed: the
+        weight shift before the first contact and the closing step after the last are standing in the truth."""
+        steps, _ = self.step_times_s()
+        pieces = list(self.pieces)
+        if steps.size == 0:
+            return
+        for i in range(len(pieces) - 1):
+            a, b = pieces[i], pieces[i + 1]
+            if a.activity == "standing" and b.activity != "standing":  # gait initiation
+                after = steps[steps > a.end_s]
+                if after.size and after[0] < b.end_s:
+                    t = float(after[0])
+                    pieces[i], pieces[i + 1] = replace(a, end_s=t), replace(b, start_s=t)
+            elif a.activity != "standing" and b.activity == "standing":  # gait termination
+                before = steps[steps < b.start_s]
+                if before.size and before[-1] > a.start_s:
+                    t = float(before[-1])
+                    pieces[i], pieces[i + 1] = replace(a, end_s=t), replace(b, start_s=t)
+        object.__setattr__(self, "pieces", tuple(pieces))
+
+    def timeline(self, t_s: ArrayLike) -> tuple[NDArray[np.str_], NDArray[np.str_]]:
+        """True ``(activity, label)`` at each time: activity in :data:`ACTIVITIES`, label the walk type while
+        walking and ``""`` otherwise (a posture change switches the label in the middle of its transition)."""
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        activity = np.full(t.shape, "standing", dtype=object)
+        label = np.full(t.shape, "", dtype=object)
+        for piece in self.pieces:
+            inside = (t >= piece.start_s) & (t < piece.end_s)
+            activity[inside] = piece.activity
+            label[inside] = piece.label
+        if self.pieces:  # the last instant belongs to the last piece
+            last = self.pieces[-1]
+            activity[t >= last.end_s] = last.activity
+            label[t >= last.end_s] = last.label
+        return activity.astype(str), label.astype(str)
+
+    def step_times_s(self) -> tuple[NDArray[np.float64], NDArray[np.str_]]:
+        """True initial contacts within the session and their foot (``"R"``/``"L"``).
+
+        A step's initial contact is where the step phase passes k + 1/2 (the trunk at its lowest, the upward
+        acceleration at its peak) while the walker is stepping (gait envelope >= 0.4, not standing). In session
+        scripts the bob's harmonics are phased so that this is the peak of the vertical acceleration; in classic
+        scripts the peak may lie up to about a tenth of a step away.
+        """
+        T = self.duration_s
+        t = np.arange(0.0, T + 0.5 / _GRID_HZ, 1.0 / _GRID_HZ)
+        phi = self._splines["phase"](t)
+        k = np.arange(np.ceil(phi[0] - 0.5), np.floor(phi[-1] - 0.5) + 1) + 0.5
+        if k.size == 0:
+            return np.zeros(0), np.zeros(0, dtype=str)
+        times = np.interp(k, phi, t)
+        env = self._splines["envelope"](times)
+        keep = (env >= 0.4) & ~self.is_standing(times) & (times > 0.0) & (times < T)
+        sides = np.where(np.floor(k[keep]).astype(int) % 2 == 0, "R", "L")
+        return times[keep], sides
+
+    def bouts(self) -> list[dict[str, Any]]:
+        """True walking bouts: the initial contacts between two standing phases, turns included.
+
+        Each bout: ``start_s``/``end_s`` (first and last initial contact), ``n_steps``, ``cadence_spm``
+        (``60 * (n_steps - 1) / (end_s - start_s)``, None under 2 steps), ``turns`` (count) and ``labels`` (the
+        walk types in it, in order); the field's >= 4 steps rule is left to the evaluation.
+        """
+        times, _ = self.step_times_s()
+        out: list[dict[str, Any]] = []
+        if times.size == 0:
+            return out
+        group = [0]
+        for i in range(1, times.size):
+            if any(times[i - 1] < a and b < times[i] for a, b in self.standing_intervals_s):
+                out.append(self._bout(times[group]))
+                group = []
+            group.append(i)
+        out.append(self._bout(times[group]))
+        return out
+
+    def _bout(self, times: NDArray[np.float64]) -> dict[str, Any]:
+        a, b = float(times[0]), float(times[-1])
+        labels: list[str] = []
+        turns = 0
+        for piece in self.pieces:
+            if piece.end_s <= a or piece.start_s >= b:
+                continue
+            if piece.activity == "turning":
+                turns += 1
+            elif piece.label and (not labels or labels[-1] != piece.label):
+                labels.append(piece.label)
+        return {
+            "start_s": round(a, 4),
+            "end_s": round(b, 4),
+            "n_steps": int(times.size),
+            "cadence_spm": round(60.0 * (times.size - 1) / (b - a), 4) if times.size >= 2 else None,
+            "turns": turns,
+            "labels": labels,
+        }
+
 
 def _merge_intervals(intervals: list[tuple[float, float]]) -> list[tuple[float, float]]:
     out: list[tuple[float, float]] = []
@@ -468,3 +655,302 @@ def _merge_intervals(intervals: list[tuple[float, float]]) -> list[tuple[float, 
         else:
             out.append((a, b))
     return out
+
+
+# ================================================================================================ session scripts
+def _smootherstep(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Quintic step from 0 (x <= 0) to 1 (x >= 1) with zero first and second derivatives at both ends (C2)."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * x * (x * (6.0 * x - 15.0) + 10.0)
+
+
+#: Parameters blended between the pieces of a walking run (posture and gait amplitudes).
+_BLENDED = (
+    "cadence_spm",
+    "speed_mps",
+    "pitch_offset_deg",
+    "roll_offset_deg",
+    "pitch_amplitude_deg",
+    "roll_amplitude_deg",
+    "yaw_amplitude_deg",
+    "bob_amplitude_m",
+    "sway_amplitude_m",
+    "asymmetry",
+    "step_jitter",
+)
+
+
+@dataclass(slots=True)
+class _Piece:
+    """A piece of a session script while it is being laid out (times are filled in as the runs are stepped)."""
+
+    kind: str  # a walk type, "turn" or "stand"
+    duration_s: float
+    params: SegmentParams
+    turn_deg: float = 0.0
+    width_s: float = 1.0  # blending width at the piece's start
+    speed_frac: float = 1.0  # a turn's walking speed and cadence, as fractions of the posture it inherits
+    cadence_frac: float = 1.0
+    start_s: float = 0.0
+    end_s: float = 0.0
+
+
+def _blend_run(t: NDArray[np.float64], pieces: list[_Piece], name: str) -> NDArray[np.float64]:
+    """A parameter across a run's pieces: constant in each, raised-cosine transitions centred on the boundaries."""
+    vals = [float(getattr(p.params, name)) for p in pieces]
+    out = np.full(t.shape, vals[0])
+    for i in range(1, len(pieces)):
+        if vals[i] != vals[i - 1]:
+            b, w = pieces[i].start_s, pieces[i].width_s
+            out += (vals[i] - vals[i - 1]) * _smoothstep((t - (b - w / 2)) / w)
+    return out
+
+
+def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  # noqa: C901, PLR0915
+    """Lay out a literal session script and build the model's splines (see the module docstring)."""
+    rng = np.random.default_rng([model.seed, 0x5E55])
+    pieces: list[_Piece] = []
+    for seg in script_segments:
+        kind = "stand" if seg.walk in ("stand", "pause") else seg.walk
+        params = _draw_params("normal" if kind == "turn" else kind, 0.0, 0.0, rng)
+        turn_rate = float(rng.uniform(60.0, 90.0))  # mean turning rate, deg/s (peak 1.9x)
+        turn_speed = float(rng.uniform(0.3, 0.55))  # walking speed while turning, fraction
+        turn_cadence = float(rng.uniform(0.9, 1.0))
+        posture_s = float(rng.uniform(1.5, 2.5))  # duration of a posture change
+        duration = seg.duration_s
+        if kind == "turn":
+            duration = duration if duration > 0 else abs(seg.turn_deg) / turn_rate
+        pieces.append(_Piece(kind, float(duration), params, seg.turn_deg, posture_s, turn_speed, turn_cadence))
+    ramps = rng.integers(2, 4, size=(len(pieces) + 2, 2))  # steps of gait initiation / termination
+    ramp_cadence = rng.uniform(0.75, 0.85, size=(len(pieces) + 2, 2))
+    ramp_amplitude = rng.uniform(0.5, 0.7, size=(len(pieces) + 2, 2))
+
+    # runs: maximal sequences of stepping pieces between standing pieces
+    blocks: list[list[_Piece]] = []
+    for p in pieces:
+        if p.kind == "stand" or not blocks or blocks[-1][0].kind == "stand":
+            blocks.append([p])
+        else:
+            blocks[-1].append(p)
+    # turns take the posture of the walk before them in their run (else the one after); speed scaled by it
+    for block in blocks:
+        walks = [p for p in block if p.kind not in ("stand", "turn")]
+        for i, p in enumerate(block):
+            if p.kind != "turn":
+                continue
+            before = [q for q in block[:i] if q.kind != "turn"]
+            src = before[-1] if before else (walks[0] if walks else None)
+            posture = src.params if src is not None else p.params
+            p.params = replace(posture, walk="turn", speed_mps=posture.speed_mps * p.speed_frac,
+                               cadence_spm=posture.cadence_spm * p.cadence_frac)
+        for i, p in enumerate(block):  # blend widths: ~2 s for a posture change, quick into and out of turns
+            if i == 0:
+                continue
+            prev = block[i - 1]
+            w = p.width_s if (p.kind != "turn" and prev.kind != "turn") else 0.6
+            p.width_s = float(min(w, p.duration_s, prev.duration_s))
+
+    # lay the blocks out in time; step each run
+    knots_t: list[float] = []
+    knots_phi: list[float] = []
+    runs: list[dict[str, Any]] = []
+    t = 0.0
+    phase = 0.0
+    for bi, block in enumerate(blocks):
+        if block[0].kind == "stand":
+            block[0].start_s, block[0].end_s = t, t + block[0].duration_s
+            t = block[0].end_s
+            continue
+        mid_start, mid_end = bi == 0, bi == len(blocks) - 1
+        a = t
+        cum = a
+        for p in block:
+            p.start_s, p.end_s = cum, cum + p.duration_s
+            cum = p.end_s
+        nominal_end = cum
+        n_on, n_off = (int(v) for v in ramps[bi])
+        r_on, r_off = (float(v) for v in ramp_cadence[bi])
+
+        def at(name: str, tt: float, block: list[_Piece] = block) -> float:
+            return float(_blend_run(np.array([tt]), block, name)[0])
+
+        steps = [a - 1.5 if mid_start else a]
+        k = 0
+        stopping_from = None
+        while True:
+            tk = steps[-1]
+            base = 60.0 / at("cadence_spm", tk)
+            side = 1.0 if (round(phase) + k) % 2 == 0 else -1.0
+            factor = 1.0 + side * 0.5 * at("asymmetry", tk) * 0.6 + at("step_jitter", tk) * rng.standard_normal()
+            rate = 1.0
+            if not mid_start and k < n_on:
+                rate = r_on + (1.0 - r_on) * float(_smoothstep(np.array(k / n_on)))
+            if stopping_from is not None:
+                j = k - stopping_from
+                rate = min(rate, r_off + (1.0 - r_off) * float(_smoothstep(np.array((n_off - 1 - j) / n_off))))
+            steps.append(tk + base * max(factor, 0.5) / rate)
+            k += 1
+            if mid_end:
+                if steps[-1] > nominal_end + 1.5:
+                    break
+            elif stopping_from is None:
+                remaining = nominal_end - steps[-1]
+                if remaining <= n_off * base * 2.0 / (1.0 + r_off) and k >= n_on:
+                    stopping_from = k
+            elif k - stopping_from >= n_off:
+                break
+        b = nominal_end if mid_end else steps[-1]
+        block[-1].end_s = b
+        if block[-1].end_s - block[-1].start_s < 0.2:  # the stepping overran a short last piece: stretch it
+            block[-1].start_s = min(block[-1].start_s, b - 0.2)
+            if len(block) > 1:
+                block[-2].end_s = block[-1].start_s
+        # phase knots: filler knots through the standing before this run, then the steps
+        if knots_t:
+            gap = steps[0] - knots_t[-1]
+            m = max(1, round(gap * 1.8))
+            t_prev = knots_t[-1]
+            for i in range(1, m):
+                knots_t.append(t_prev + gap * i / m)
+                knots_phi.append(phase + i)
+            phase += m
+        elif not mid_start:  # the session starts standing: filler knots from before t = 0
+            m = max(1, round((steps[0] + 1.5) * 1.8))
+            for i in range(m):
+                knots_t.append(-1.5 + (steps[0] + 1.5) * i / m)
+                knots_phi.append(phase + i)
+            phase += m
+        for i, st in enumerate(steps):
+            knots_t.append(st)
+            knots_phi.append(phase + i)
+        run_phase0 = phase
+        phase += len(steps) - 1
+        runs.append({"block": block, "a": a, "b": b, "steps": steps, "mid_start": mid_start, "mid_end": mid_end,
+                     "n_on": n_on, "n_off": n_off, "amp": ramp_amplitude[bi], "phase0": run_phase0})
+        t = b
+    duration = t
+    if not runs or not runs[-1]["mid_end"]:  # the session ends standing: filler knots after it
+        t_last = knots_t[-1] if knots_t else -1.5
+        m = max(2, round((duration + 1.5 - t_last) * 1.8))
+        for i in range(1, m + 1):
+            knots_t.append(t_last + (duration + 1.5 - t_last) * i / m)
+            knots_phi.append(phase + i)
+    if duration <= 0.0:
+        msg = f"walk script {model.script!r}: the session has no duration"
+        raise InvalidInputError(msg)
+    if duration > 3600.0:
+        msg = f"walk script {model.script!r}: more than an hour is not supported"
+        raise InvalidInputError(msg)
+
+    grid = np.arange(-0.5, duration + 0.5 + 1.0 / _GRID_HZ, 1.0 / _GRID_HZ)
+    phase_spline = CubicSpline(np.array(knots_t), np.array(knots_phi))
+    phi = phase_spline(grid)
+    if np.any(np.diff(phi) <= 0):  # pragma: no cover - guarded by the knot spacing
+        msg = "internal error: non-monotonic gait phase"
+        raise RuntimeError(msg)
+
+    # per-run parameters, gait envelope (amplitude), motion envelope (speed, posture), turning heading
+    vals = {name: np.zeros_like(grid) for name in _BLENDED}
+    env = np.zeros_like(grid)
+    motion = np.zeros_like(grid)
+    turn_deg = np.zeros_like(grid)
+    for run in runs:
+        a, b, steps = run["a"], run["b"], run["steps"]
+        lo = -np.inf if run["mid_start"] else a
+        hi = np.inf if run["mid_end"] else b
+        inside = (grid >= lo) & (grid <= hi)
+        g = grid[inside]
+        for name in _BLENDED:
+            vals[name][inside] = _blend_run(g, run["block"], name)
+        amp, mot = np.ones_like(g), np.ones_like(g)
+        if not run["mid_start"]:
+            s1, sn = steps[1], steps[min(run["n_on"], len(steps) - 1)]
+            amp *= _smootherstep((g - a) / (0.5 * (s1 - a)))
+            amp *= run["amp"][0] + (1.0 - run["amp"][0]) * _smootherstep((g - a) / (sn - a))
+            mot *= _smootherstep((g - a) / (sn - a))
+        if not run["mid_end"]:
+            s1, sn = steps[-2], steps[max(len(steps) - 1 - run["n_off"], 0)]
+            amp *= _smootherstep((b - g) / (0.5 * (b - s1)))
+            amp *= run["amp"][1] + (1.0 - run["amp"][1]) * _smootherstep((b - g) / (b - sn))
+            mot *= _smootherstep((b - g) / (b - sn))
+        env[inside] = amp
+        motion[inside] = mot
+    for p in pieces:
+        if p.kind == "turn":
+            turn_deg += p.turn_deg * _smootherstep((grid - p.start_s) / (p.end_s - p.start_s))
+
+    var = 1.0 + 0.10 * rng.standard_normal((len(knots_t) + 4, 5))
+    v = CubicSpline(np.arange(var.shape[0], dtype=float), var)(phi)
+    ph = rng.uniform(0.0, 2.0 * np.pi, size=12)
+    ph[3] = np.pi  # bob's 2nd harmonic sharpens the lowest point (initial contact: peak upward acceleration)
+    h2 = rng.uniform(0.15, 0.3, size=5)
+    h2[1] *= 2.0 / 3.0  # the bob's 2nd harmonic: a secondary hump mid-step below a third of the contact peak
+    asym = vals["asymmetry"]
+    two_pi_phi = 2.0 * np.pi * phi
+    stride = np.pi * phi
+    pitch_osc = vals["pitch_amplitude_deg"] * v[:, 0] * (
+        np.cos(two_pi_phi + ph[0]) + h2[0] * np.cos(2 * two_pi_phi + ph[1]) + 0.5 * asym * np.cos(stride + ph[2])
+    )
+    bob = vals["bob_amplitude_m"] * v[:, 1] * (
+        np.cos(two_pi_phi) + h2[1] * np.cos(2 * two_pi_phi + ph[3]) + 0.6 * asym * np.cos(stride + ph[4])
+    )
+    roll_osc = vals["roll_amplitude_deg"] * v[:, 2] * (
+        np.sin(stride + ph[5]) + h2[2] * np.sin(3 * stride + ph[6]) + 0.2 * np.cos(two_pi_phi + ph[7])
+        + asym * 0.5 * np.cos(two_pi_phi)
+    )
+    yaw_osc = vals["yaw_amplitude_deg"] * v[:, 3] * (
+        np.sin(stride + ph[8]) + h2[3] * np.sin(3 * stride + ph[9]) + 0.3 * asym * np.cos(two_pi_phi)
+    )
+    sway = vals["sway_amplitude_m"] * v[:, 4] * (np.sin(stride + ph[10]) + h2[4] * np.sin(3 * stride + ph[11]))
+
+    i0 = int(np.searchsorted(grid, 0.0))
+    speed = vals["speed_mps"] * motion * (1.0 + 0.06 * env * np.cos(two_pi_phi + ph[0] + 0.8))
+    walked_m = np.cumsum(speed) / _GRID_HZ
+    walked_m -= walked_m[i0]
+    kw = 2.0 * np.pi / rng.uniform(20.0, 60.0, size=3)
+    amps = rng.uniform(0.1, 0.25, size=3) * rng.choice([-1.0, 1.0], size=3)
+    wander = np.arctan(sum(aa * kk * np.sin(kk * walked_m) for aa, kk in zip(amps, kw, strict=True)))
+    hd = np.radians(turn_deg) + wander
+    fwd = np.stack([np.sin(hd), np.zeros_like(hd), np.cos(hd)], axis=1)
+    right = np.stack([np.cos(hd), np.zeros_like(hd), -np.sin(hd)], axis=1)
+    path = np.cumsum(speed[:, None] * fwd, axis=0) / _GRID_HZ
+
+    pitch_off = vals["pitch_offset_deg"] * motion
+    roll_off = vals["roll_offset_deg"] * motion
+    lean = np.radians(pitch_off)
+    pos = path + (env * sway)[:, None] * right + fwd * (-_HIP_TO_CAMERA_M * np.sin(lean))[:, None]
+    pos[:, 1] += -env * bob + _HIP_TO_CAMERA_M * (1.0 - np.cos(lean))
+    pos -= pos[i0]
+    pitch_deg = pitch_off + env * pitch_osc
+    roll_deg = roll_off + env * roll_osc
+    yaw_deg = np.degrees(hd) + env * yaw_osc
+
+    # the truth: pieces with their final times
+    timeline: list[TimelinePiece] = []
+    params_out: list[SegmentParams] = []
+    standing: list[tuple[float, float]] = []
+    for p in pieces:
+        a, b = max(p.start_s, 0.0), min(p.end_s, duration)
+        if b <= a:
+            continue
+        if p.kind == "stand":
+            timeline.append(TimelinePiece(a, b, "standing", ""))
+            standing.append((a, b))
+            walk = "stand"
+        elif p.kind == "turn":
+            timeline.append(TimelinePiece(a, b, "turning", "", p.turn_deg))
+            walk = "turn"
+        else:
+            timeline.append(TimelinePiece(a, b, "walking", p.kind))
+            walk = p.kind
+        params_out.append(replace(p.params, walk=walk, start_s=a, end_s=b))
+    object.__setattr__(model, "segments", tuple(params_out))
+    object.__setattr__(model, "duration_s", float(duration))
+    object.__setattr__(model, "standing_intervals_s", tuple(_merge_intervals(standing)))
+    object.__setattr__(model, "pieces", tuple(timeline))
+    object.__setattr__(model, "_splines", {
+        "angles": CubicSpline(grid, np.stack([pitch_deg, yaw_deg, roll_deg], axis=1)),
+        "position": CubicSpline(grid, pos),
+        "phase": phase_spline,
+        "envelope": CubicSpline(grid, env),
+    })

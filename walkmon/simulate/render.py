@@ -289,6 +289,17 @@ class Renderer:
         ok = (height >= 0) & (height <= self._far_lut[blk])
         dist[cand[ok]] = s_c[ok]
         label[cand[ok]] = 3
+        if sc.back_z_m is not None:  # buildings closing the street behind (same texture as the far ones)
+            s = np.full(n, np.inf, np.float32)
+            np.divide(np.float32(sc.back_z_m - pz), dzs, out=s, where=dzs < -1e-5)
+            cand = np.nonzero(s < dist)[0]
+            s_c = s[cand]
+            xc = np.float32(px - sc.far_edges_x_m[0]) + s_c * dxs[cand]
+            height = np.float32(H - py) - s_c * dys[cand]
+            blk = np.clip((xc * np.float32(1.0 / _LUT_STEP_M)).astype(np.int32), 0, self._far_lut.size - 1)
+            ok = (height >= 0) & (height <= self._far_lut[blk])
+            dist[cand[ok]] = s_c[ok]
+            label[cand[ok]] = 3
         return dist, label, (dxs, dys, dzs)
 
     def _pixels(self, rows: tuple[int, int] | None) -> slice:

@@ -67,6 +67,7 @@ class StreetScene:
     far: Texture
     sky_horizon_bgr: tuple[float, float, float]
     sky_zenith_bgr: tuple[float, float, float]
+    back_z_m: float | None = None  # buildings closing the street behind the start (seen after a U-turn)
 
     def describe(self) -> dict[str, float]:
         """Scene figures for meta.json."""
@@ -75,6 +76,7 @@ class StreetScene:
             "left_wall_x_m": round(self.left_wall_x_m, 3),
             "right_wall_x_m": round(self.right_wall_x_m, 3),
             "far_z_m": round(self.far_z_m, 3),
+            **({"back_z_m": round(self.back_z_m, 3)} if self.back_z_m is not None else {}),
             "wall_height_min_m": round(float(min(self.left_heights_m.min(), self.right_heights_m.min())), 3),
             "wall_height_max_m": round(float(max(self.left_heights_m.max(), self.right_heights_m.max())), 3),
         }
@@ -348,19 +350,39 @@ def _far_texture(rng: np.random.Generator, size: tuple[int, int]) -> Texture:
     return _finish(img, texel)
 
 
-def build_street_scene(seed: int, *, camera_height_m: float = 1.3, z_max_m: float = 40.0) -> StreetScene:
+def build_street_scene(
+    seed: int,
+    *,
+    camera_height_m: float = 1.3,
+    z_max_m: float = 40.0,
+    walls_x_m: tuple[float, float] | None = None,
+    z_min_m: float | None = None,
+) -> StreetScene:
     """A seeded street whose far buildings stand 40-60 m beyond ``z_max_m`` (the walk's farthest point).
+
+    ``walls_x_m = (left, right)`` places the facades there instead of the seed's own positions (session scripts
+    fit the street around the walker's path); ``z_min_m`` (the walk's rearmost point) closes the street behind
+    with buildings 40-60 m beyond it (the seed's default street is open behind: straight walks never look back).
 
     The street (walls, facade blocks, textures) depends only on ``seed`` and is cached for the last few seeds,
     since generating its textures takes a few seconds.
     """
-    street = _street(int(seed))
+    street = dict(_street(int(seed)))
     rng = np.random.default_rng([seed, 0xFA2])
+    far_z = float(z_max_m + rng.uniform(40.0, 60.0))
+    back_z = None if z_min_m is None else float(z_min_m - rng.uniform(40.0, 60.0))
+    if walls_x_m is not None:
+        left, right = (float(v) for v in walls_x_m)
+        if not (np.isfinite(left) and np.isfinite(right) and left < right):
+            msg = f"street walls must be finite with left < right, got {walls_x_m}"
+            raise ValueError(msg)
+        street["left_wall_x_m"], street["right_wall_x_m"] = left, right
     return StreetScene(
         camera_height_m=float(camera_height_m),
-        far_z_m=float(z_max_m + rng.uniform(40.0, 60.0)),
+        far_z_m=far_z,
         sky_horizon_bgr=(235.0, 222.0, 205.0),
         sky_zenith_bgr=(205.0, 150.0, 100.0),
+        back_z_m=back_z,
         **street,
     )
 

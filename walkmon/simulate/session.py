@@ -1,6 +1,8 @@
 """A simulated walking session: gait model + street scene + renderer + IMU, written to files or streamed.
 
-``simulate(out_dir, ...)`` writes ``video.mp4``, ``truth.csv``, ``imu.csv``, ``camera.yaml`` and ``meta.json``;
+``simulate(out_dir, ...)`` writes ``video.mp4``, ``truth.csv``, ``imu.csv``, ``camera.yaml`` and ``meta.json``, and
+the true timeline: ``truth_timeline.csv`` (per frame: activity, posture label, trunk pitch/roll and heading) and
+``truth_steps.csv`` (initial contacts); meta.json's ``pieces`` and ``bouts`` hold the timeline's pieces and bouts;
 ``iter_frames(...)`` yields ``(t_s, frame_bgr, truth_angles_deg)`` in memory (the live ``sim:`` source).
 Frame ``i`` is at ``t = i / fps``; the IMU shares that clock.
 """
@@ -23,6 +25,7 @@ from numpy.typing import NDArray
 from walkmon.camera.model import CameraModel, default_camera, write_camera_yaml
 from walkmon.consts import TRUTH_COLUMNS
 from walkmon.errors import InvalidInputError
+from walkmon.simulate._version import SIMULATOR_VERSION
 from walkmon.simulate.gait import STANDING_S, GaitModel
 from walkmon.simulate.imu import (
     DEFAULT_IMU_SETTINGS,
@@ -103,9 +106,45 @@ class SimulatedSession:
     @property
     def scene(self) -> StreetScene:
         if self._scene is None:
-            z_max = float(self.model.position_m(np.linspace(0, self.model.duration_s, 200))[:, 2].max())
-            self._scene = build_street_scene(self.seed, camera_height_m=self.model.camera_height_m, z_max_m=z_max)
+            if self.model.literal:
+                self._scene = self._session_scene()
+            else:
+                z_max = float(self.model.position_m(np.linspace(0, self.model.duration_s, 200))[:, 2].max())
+                self._scene = build_street_scene(self.seed, camera_height_m=self.model.camera_height_m, z_max_m=z_max)
         return self._scene
+
+    def _session_scene(self) -> StreetScene:
+        """The street of a session script, fitted around its path: the walker keeps to one side (the near facade
+        1-2 m beyond the path's extreme, so turns sweep across it at 1-3 m) and the street's far end and (after
+        a U-turn) its other end have buildings."""
+        pos = self.model.position_m(np.arange(0.0, self.model.duration_s + 0.05, 0.05))
+        rng = np.random.default_rng([self.seed, 0xFACADE])
+        near, far = float(rng.uniform(1.0, 2.0)), float(rng.uniform(3.0, 5.5))
+        x_lo, x_hi = float(pos[:, 0].min()), float(pos[:, 0].max())
+        walls = (x_lo - far, x_hi + near) if rng.uniform() < 0.5 else (x_lo - near, x_hi + far)
+        return build_street_scene(
+            self.seed, camera_height_m=self.model.camera_height_m, z_max_m=float(pos[:, 2].max()),
+            walls_x_m=walls, z_min_m=float(pos[:, 2].min()),
+        )
+
+    def timeline(self) -> dict[str, NDArray[Any]]:
+        """truth_timeline.csv columns per frame: t, activity, label (walk type while walking, else empty), and the
+        trunk's heading-free posture: trunk_pitch (< 0 bent forward), trunk_roll (> 0 right side down) and
+        heading (the walking direction plus the stride's yaw swing, unwrapped), degrees."""
+        t = self.frame_times_s
+        activity, label = self.model.timeline(t)
+        body = self.model.body_angles_deg(t) if t.size else np.zeros((0, 3))
+        return {"t": t, "activity": activity, "label": label, "trunk_pitch": body[:, 0], "trunk_roll": body[:, 2],
+                "heading": body[:, 1]}
+
+    def steps(self) -> dict[str, NDArray[Any]]:
+        """truth_steps.csv columns: t (initial contact, s), foot (R/L), bout (index into meta.json's bouts)."""
+        times, feet = self.model.step_times_s()
+        bouts = self.model.bouts()
+        idx = np.full(times.shape, -1, int)
+        for i, b in enumerate(bouts):
+            idx[(times >= b["start_s"] - 1e-3) & (times <= b["end_s"] + 1e-3)] = i
+        return {"t": times, "foot": feet, "bout": idx}
 
     @property
     def renderer(self) -> Renderer:
@@ -116,7 +155,7 @@ class SimulatedSession:
     def truth(self) -> dict[str, NDArray[np.float64]]:
         """truth.csv columns: t, pitch, yaw, roll (degrees, relative to frame 0), x, y, z (metres)."""
         t = self.frame_times_s
-        angles = self.model.truth_angles_deg(t)
+        angles = _unwrap_yaw(self.model.truth_angles_deg(t))
         pos = self.model.position_m(t)
         cols = (t, angles[:, 0], angles[:, 1], angles[:, 2], pos[:, 0], pos[:, 1], pos[:, 2])
         return dict(zip(TRUTH_COLUMNS, cols, strict=True))
@@ -158,7 +197,7 @@ class SimulatedSession:
     def frames(self) -> Iterator[tuple[float, NDArray[np.uint8], NDArray[np.float64]]]:
         """``(t_s, frame_bgr, truth_angles_deg (3,))`` for every frame, in order."""
         t_all = self.frame_times_s
-        angles = self.model.truth_angles_deg(t_all) if t_all.size else np.zeros((0, 3))
+        angles = _unwrap_yaw(self.model.truth_angles_deg(t_all)) if t_all.size else np.zeros((0, 3))
         for i, t in enumerate(t_all):
             rng = np.random.default_rng([self.seed, 0xF4A3E, i])
             yield float(t), self.render(float(t), rng), angles[i]
@@ -171,6 +210,7 @@ class SimulatedSession:
         imu = self.imu_settings
         meta: dict[str, Any] = {
             "generator": "walkmon simulate",
+            "simulator_version": SIMULATOR_VERSION,
             "versions": {
                 "walkmon": __version__,
                 "numpy": np.__version__,
@@ -178,6 +218,13 @@ class SimulatedSession:
                 "python": platform.python_version(),
             },
             **self.model.meta(),
+            "session_script": self.model.literal,
+            "pieces": [
+                {"start_s": round(p.start_s, 4), "end_s": round(p.end_s, 4), "activity": p.activity, "label": p.label,
+                 **({"turn_deg": p.turn_deg} if p.activity == "turning" else {})}
+                for p in self.model.pieces
+            ],
+            "bouts": self.model.bouts(),
             "fps": self.fps,
             "n_frames": self.n_frames,
             "width": cam.width_px,
@@ -254,6 +301,7 @@ def simulate(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     truth_path, imu_path = out / "truth.csv", out / "imu.csv"
+    timeline_path, steps_path = out / "truth_timeline.csv", out / "truth_steps.csv"
     camera_path, meta_path, video_path = out / "camera.yaml", out / "meta.json", out / "video.mp4"
 
     # round before writing, and add 0.0 so values that round to zero are written as 0.000000, not -0.000000
@@ -261,6 +309,10 @@ def simulate(
     samples = session.imu()
     write_table(imu_path, {k: np.round(v, 7) + 0.0 for k, v in samples.columns().items()}, default_precision=7)
     write_camera_yaml(session.camera, camera_path)
+    timeline = session.timeline()
+    timeline = {k: (np.round(v, 4) + 0.0 if k != "t" and v.dtype.kind == "f" else v) for k, v in timeline.items()}
+    write_table(timeline_path, timeline, precision={"t": 6}, default_precision=4)
+    write_table(steps_path, session.steps(), precision={"t": 4, "bout": 0})
 
     render_time = 0.0
     if video:
@@ -285,6 +337,8 @@ def simulate(
         "truth": truth_path.name,
         "imu": imu_path.name,
         "camera": camera_path.name,
+        "timeline": timeline_path.name,
+        "steps": steps_path.name,
     }
     meta["render_time_s"] = round(render_time, 3)
     meta_path.write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
@@ -305,6 +359,14 @@ def _write_video(session: SimulatedSession, path: Path) -> None:
             writer.write(frame)
     finally:
         writer.release()
+
+
+def _unwrap_yaw(angles: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Yaw made continuous across ±180° (turns); angles that never jump are returned unchanged, bit for bit."""
+    if angles.shape[0] > 1 and np.abs(np.diff(angles[:, 1])).max() > 180.0:
+        angles = angles.copy()
+        angles[:, 1] = np.unwrap(angles[:, 1], period=360.0)
+    return angles
 
 
 def iter_frames(

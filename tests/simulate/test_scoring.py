@@ -1,0 +1,91 @@
+"""The unkind-session scores on synthetic inputs whose right answers are worked out by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from walkmon.simulate.scoring import (
+    activity_per_second,
+    cadence_errors,
+    change_points,
+    posture_change_errors,
+    segment_label_accuracy,
+    true_posture_segments,
+    truth_cadence_between,
+)
+
+FPS = 10.0
+
+
+def _truth(pieces: list[tuple[float, str, str]]) -> tuple[np.ndarray, list[str], list[str]]:
+    """Per-sample truth at FPS from (duration, activity, label) pieces."""
+    t, act, lab = [], [], []
+    t0 = 0.0
+    for dur, a, label in pieces:
+        n = round(dur * FPS)
+        t += list(t0 + np.arange(n) / FPS)
+        act += [a] * n
+        lab += [label] * n
+        t0 += dur
+    return np.array(t), act, lab
+
+
+def test_activity_per_second() -> None:
+    t, act, _ = _truth([(3, "standing", ""), (5, "walking", "normal"), (2, "turning", "")])
+    grid = np.arange(10) + 0.5  # rows at 0.5, 1.5, ...: each window holds one activity
+    est = ["standing"] * 3 + ["walking"] * 5 + ["turning"] * 2
+    assert activity_per_second(t, act, grid, est) == (100.0, 10)
+    est_late = ["standing"] * 4 + ["walking"] * 4 + ["walking", "unknown"]
+    pct, n = activity_per_second(t, act, grid, est_late)
+    assert n == 10 and pct == pytest.approx(70.0)  # rows 3.5, 8.5 and 9.5 wrong
+    # a window split half and half: the earlier activity is the truth
+    assert activity_per_second(t, act, [3.0], ["standing"]) == (100.0, 1)
+    # rows beyond the truth are not scored
+    assert activity_per_second(t, act, [20.0], ["walking"])[1] == 0
+
+
+def test_true_posture_segments_and_change_points() -> None:
+    t, _, lab = _truth([(2, "standing", ""), (6, "walking", "normal"), (6, "walking", "bend"),
+                        (2, "turning", ""), (1, "walking", "bend"), (3, "standing", "")])
+    segs = true_posture_segments(t, lab)
+    assert [(round(a, 1), round(b, 1), s) for a, b, s in segs] == [(2.0, 7.9, "normal"), (8.0, 13.9, "bend"),
+                                                                   (16.0, 16.9, "bend")]
+    assert len(true_posture_segments(t, lab, min_s=4.0)) == 2
+    assert change_points(segs) == pytest.approx([7.95])  # the bend after the turn is no change
+    far = [(0.0, 5.0, "normal"), (8.0, 12.0, "bend")]
+    assert change_points(far).size == 0  # 3 s apart: across a pause, not during a walk
+    assert change_points(far, max_gap_s=3.0) == pytest.approx([6.5])
+
+
+def test_posture_change_errors() -> None:
+    err, false = posture_change_errors([10.0, 30.0], [10.8, 29.0, 50.0])
+    assert err == pytest.approx([0.8, 1.0])
+    assert false == 1
+    err, false = posture_change_errors([10.0], [])
+    assert np.isinf(err).all() and false == 0
+    assert posture_change_errors([], [5.0])[1] == 1
+
+
+def test_segment_label_accuracy() -> None:
+    truth = [(0.0, 10.0, "normal"), (10.0, 20.0, "bend"), (25.0, 30.0, "bend")]
+    est = [(0.0, 11.0, "normal"), (11.0, 20.0, "bend"), (24.0, 27.0, "normal"), (27.0, 31.0, "bend")]
+    assert segment_label_accuracy(truth, est) == (pytest.approx(100.0), 3)
+    est_wrong = [(0.0, 20.0, "normal"), (26.0, 27.0, "bend")]
+    # the bend segment is mostly covered by "normal"; the last one has 1 s of 5 covered: not enough
+    assert segment_label_accuracy(truth, est_wrong) == (pytest.approx(100.0 / 3), 3)
+    assert np.isnan(segment_label_accuracy([], est)[0])
+
+
+def test_truth_cadence_skips_pauses_and_cadence_errors() -> None:
+    steps = np.r_[np.arange(10) * 0.5 + 1.0, np.arange(8) * 0.6 + 10.0]  # 120 spm, pause, 100 spm
+    bout = np.r_[np.zeros(10, int), np.ones(8, int)]
+    assert truth_cadence_between(steps, bout, 0.0, 6.0) == (pytest.approx(120.0), 9)
+    # across the pause: 9 intervals of 0.5 s and 7 of 0.6 s, the 5.5 s pause left out
+    cad, n = truth_cadence_between(steps, bout, 0.0, 20.0)
+    assert n == 16 and cad == pytest.approx(60.0 * 16 / (9 * 0.5 + 7 * 0.6))
+    assert np.isnan(truth_cadence_between(steps, bout, 7.0, 9.0)[0])
+    errs = cadence_errors([(1.0, 5.5, 121.2), (10.0, 14.2, 99.0), (7.0, 9.0, 100.0), (10.0, 11.0, 100.0)],
+                          steps, bout)
+    assert [round(e.error_pct, 3) for e in errs] == [1.0, -1.0]  # the last two have < 4 true steps
+    assert errs[0].n_true_steps == 10 and errs[1].true_cadence_spm == pytest.approx(100.0)

@@ -1,0 +1,8 @@
+"""The simulator's version: bump it whenever the same arguments give different output (motion, scene, rendering,
+IMU samples, truth files). Benchmarks key their cached simulations by it (:mod:`walkmon.simulate.cache`)."""
+
+from __future__ import annotations
+
+#: 1: the simulator up to issue 11 (implicit; never written). 2: session scripts (turns, pauses, gait
+#: initiation/termination, posture changes), truth_timeline.csv/truth_steps.csv, unwrapped truth yaw, version in meta.json.
+SIMULATOR_VERSION = 2

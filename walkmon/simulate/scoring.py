@@ -1,0 +1,164 @@
+"""Scoring a session analysis against the simulator's true timeline (issue 11's "simulated unkind sessions" target).
+
+Pure functions (no I/O) on plain arrays and lists, so that any estimator can be scored:
+
+* :func:`activity_per_second` - the share of seconds whose estimated activity is the true one;
+* :func:`posture_change_errors` - how far each true posture change point is from the nearest estimated one;
+* :func:`segment_label_accuracy` - the share of true posture segments whose overlapping estimate has their label;
+* :func:`cadence_errors` - each estimated bout's cadence against the true steps inside it.
+
+Segments and bouts are ``(start_s, end_s, label)`` / ``(start_s, end_s, cadence_spm)`` tuples.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+from itertools import pairwise
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "CadenceError",
+    "activity_per_second",
+    "cadence_errors",
+    "change_points",
+    "posture_change_errors",
+    "segment_label_accuracy",
+    "true_posture_segments",
+    "truth_cadence_between",
+]
+
+
+def activity_per_second(
+    truth_t: ArrayLike, truth_activity: Sequence[str], est_t: ArrayLike, est_activity: Sequence[str],
+    step_s: float = 1.0,
+) -> tuple[float, int]:
+    """``(percent right, seconds scored)``: for every estimate row at time g (a 1 s timeline), the true activity
+    is the majority over the truth samples in ``[g - step/2, g + step/2)``; rows with no truth sample are not
+    scored. An estimate of ``unknown`` where the truth is known counts as wrong."""
+    tt = np.asarray(truth_t, dtype=float)
+    ta = np.asarray(list(truth_activity), dtype=object)
+    right = scored = 0
+    for g, act in zip(np.asarray(est_t, dtype=float), est_activity, strict=True):
+        inside = (tt >= g - step_s / 2) & (tt < g + step_s / 2)
+        if not inside.any():
+            continue
+        true = Counter(ta[inside]).most_common(1)[0][0]
+        scored += 1
+        right += int(true == act)
+    return (100.0 * right / scored if scored else float("nan")), scored
+
+
+def true_posture_segments(
+    truth_t: ArrayLike, truth_label: Sequence[str], min_s: float = 0.0
+) -> list[tuple[float, float, str]]:
+    """Maximal runs of one non-empty label in a per-sample truth timeline, at least ``min_s`` long."""
+    t = np.asarray(truth_t, dtype=float)
+    labels = list(truth_label)
+    out: list[tuple[float, float, str]] = []
+    i = 0
+    while i < len(labels):
+        j = i
+        while j + 1 < len(labels) and labels[j + 1] == labels[i]:
+            j += 1
+        if labels[i] and t[j] - t[i] >= min_s:
+            out.append((float(t[i]), float(t[j]), labels[i]))
+        i = j + 1
+    return out
+
+
+def change_points(segments: Sequence[tuple[float, float, str]], max_gap_s: float = 2.0) -> NDArray[np.float64]:
+    """Posture change points: between consecutive segments (sorted by start) with different labels that are at
+    most ``max_gap_s`` apart (a change across a pause or a long turn is not a change *during* a walk); the point
+    is the middle of the gap."""
+    segs = sorted(segments, key=lambda s: s[0])
+    pts = [
+        0.5 * (a[1] + b[0])
+        for a, b in pairwise(segs)
+        if a[2] != b[2] and b[0] - a[1] <= max_gap_s
+    ]
+    return np.array(pts, dtype=float)
+
+
+def posture_change_errors(
+    true_points: ArrayLike, est_points: ArrayLike, tolerance_s: float = 1.5
+) -> tuple[NDArray[np.float64], int]:
+    """``(error per true change point in s (inf where nothing was estimated), estimated points farther than
+    tolerance_s from every true point)``."""
+    tp = np.asarray(true_points, dtype=float)
+    ep = np.asarray(est_points, dtype=float)
+    if ep.size == 0:
+        return np.full(tp.size, np.inf), 0
+    err = np.array([np.min(np.abs(ep - p)) for p in tp], dtype=float)
+    false = int(sum(tp.size == 0 or np.min(np.abs(tp - p)) > tolerance_s for p in ep))
+    return err, false
+
+
+def segment_label_accuracy(
+    true_segments: Sequence[tuple[float, float, str]], est_segments: Sequence[tuple[float, float, str]]
+) -> tuple[float, int]:
+    """``(percent right, segments scored)``: a true segment is right when the estimated label covering most of
+    its time is its own label (time covered by no estimate counts for no label)."""
+    right = 0
+    for a, b, label in true_segments:
+        cover: dict[str, float] = {}
+        for c, d, est in est_segments:
+            overlap = min(b, d) - max(a, c)
+            if overlap > 0:
+                cover[est] = cover.get(est, 0.0) + overlap
+        covered = sum(cover.values())
+        uncovered = (b - a) - covered
+        best = max(cover.items(), key=lambda kv: kv[1]) if cover else ("", 0.0)
+        right += int(best[0] == label and best[1] > uncovered)
+    n = len(true_segments)
+    return (100.0 * right / n if n else float("nan")), n
+
+
+def truth_cadence_between(
+    step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s: float
+) -> tuple[float, int]:
+    """``(cadence in steps/min, intervals)`` of the true steps in ``[start_s, end_s]``, from the intervals between
+    consecutive steps of the same true bout only (an estimated bout spanning a pause is scored on the walking
+    either side of it, not on the pause). nan when fewer than 2 steps."""
+    t = np.asarray(step_times_s, dtype=float)
+    bout = np.asarray(step_bout)
+    inside = (t >= start_s) & (t <= end_s)
+    t, bout = t[inside], bout[inside]
+    if t.size < 2:
+        return float("nan"), 0
+    same = bout[1:] == bout[:-1]
+    dt = np.diff(t)[same]
+    if dt.size == 0:
+        return float("nan"), 0
+    return 60.0 * dt.size / float(dt.sum()), int(dt.size)
+
+
+@dataclass(frozen=True, slots=True)
+class CadenceError:
+    """One estimated bout scored against the truth."""
+
+    start_s: float
+    end_s: float
+    est_cadence_spm: float
+    true_cadence_spm: float
+    error_pct: float
+    n_true_steps: int
+
+
+def cadence_errors(
+    est_bouts: Sequence[tuple[float, float, float]], step_times_s: ArrayLike, step_bout: ArrayLike,
+    min_steps: int = 4,
+) -> list[CadenceError]:
+    """Every estimated bout with at least ``min_steps`` true steps inside, with its cadence error in percent
+    (estimate / truth - 1) against :func:`truth_cadence_between` over the same interval."""
+    out = []
+    for a, b, cad in est_bouts:
+        true, n = truth_cadence_between(step_times_s, step_bout, a, b)
+        if n + 1 < min_steps or not np.isfinite(true):
+            continue
+        err = 100.0 * (cad / true - 1.0) if cad is not None and np.isfinite(cad) else float("inf")
+        out.append(CadenceError(float(a), float(b), float(cad) if cad is not None else float("nan"), true, err, n + 1))
+    return out

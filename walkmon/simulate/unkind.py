@@ -1,0 +1,68 @@
+"""Random session scripts "as unkind as life" (issue 11): what a real daily check looks like, not a lab walk.
+
+``unkind_script(seed, walk)`` draws a literal session script (see :mod:`walkmon.simulate.gait`) around one walk
+type: it starts standing for a random time or already walking, walks 2-4 bouts separated by pauses of 1-6 s,
+turns by 180° (U-turns) or by 90° towards a facade and 90° on (at once, after a pause in front of it or after a
+few steps towards it), changes posture in
+the middle of a bout (to ``bend`` and back for a normal walker, to ``normal`` and back for the others, each
+posture held long enough to measure: >= 6 s) and ends standing or mid-walk. The same seed gives the same
+script; the script itself is the truth's description (``GaitModel`` lays it out and records the timeline).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from walkmon.errors import InvalidInputError
+from walkmon.simulate.gait import WALK_TYPES
+
+__all__ = ["UNKIND_WALKS", "unkind_script"]
+
+#: Walk types an unkind session can be built around.
+UNKIND_WALKS = tuple(w for w in WALK_TYPES if w != "stand")
+
+
+def _s(x: float) -> str:
+    return f"{x:.1f}"
+
+
+def unkind_script(seed: int, walk: str = "normal") -> str:
+    """A random unkind session script around ``walk``, reproducible per ``seed`` (about 30-80 s long)."""
+    if walk not in UNKIND_WALKS:
+        msg = f"unkind sessions are built around a walk type ({', '.join(UNKIND_WALKS)}), got {walk!r}"
+        raise InvalidInputError(msg)
+    if not isinstance(seed, int | np.integer) or seed < 0:
+        msg = f"seed must be a whole number >= 0, got {seed!r}"
+        raise InvalidInputError(msg)
+    rng = np.random.default_rng([int(seed), 0x0C1D, UNKIND_WALKS.index(walk)])
+    other = "bend" if walk == "normal" else "normal"
+    parts: list[str] = []
+    if rng.uniform() < 0.6:  # a standing start of any length, else the recording starts mid-walk
+        parts.append(f"stand:{_s(rng.uniform(0.5, 5.0))}")
+    n_bouts = int(rng.integers(2, 5))
+    posture_bout = int(rng.integers(0, n_bouts))  # one bout changes posture in its middle
+    for i in range(n_bouts):
+        if i == posture_bout:
+            parts += [f"{walk}:{_s(rng.uniform(6.0, 9.0))}", f"{other}:{_s(rng.uniform(6.0, 10.0))}"]
+            if rng.uniform() < 0.5:
+                parts.append(f"{walk}:{_s(rng.uniform(6.0, 8.0))}")
+        else:
+            parts.append(f"{walk}:{_s(rng.uniform(4.0, 10.0))}")
+        last = i == n_bouts - 1
+        turn = rng.uniform()
+        if turn < 0.4:  # a U-turn while walking, then walk back
+            parts += [f"turn:{int(rng.choice([-180, 180]))}", f"{walk}:{_s(rng.uniform(3.0, 8.0))}"]
+        elif turn < 0.7:  # a quarter turn towards a facade, a pause or a few steps, another quarter turn
+            sign = int(rng.choice([-1, 1]))
+            parts.append(f"turn:{90 * sign}")
+            between = rng.uniform()
+            if between < 1 / 3:  # stop in front of the facade
+                parts.append(f"pause:{_s(rng.uniform(1.0, 4.0))}")
+            elif between < 2 / 3:  # a few steps towards it
+                parts.append(f"{walk}:{_s(rng.uniform(1.0, 2.0))}")
+            parts += [f"turn:{90 * sign * int(rng.choice([-1, 1]))}", f"{walk}:{_s(rng.uniform(4.0, 8.0))}"]
+        if not last:
+            parts.append(f"pause:{_s(rng.uniform(1.0, 6.0))}")
+    if rng.uniform() < 0.6:  # a standing end of any length, else the recording stops mid-walk
+        parts.append(f"stand:{_s(rng.uniform(0.5, 4.0))}")
+    return ",".join(parts)
