@@ -63,13 +63,26 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rolling-shutter-ms", type=float, default=0.0, metavar="MS",
                    help="rolling-shutter readout time top to bottom, 0-100 ms (default 0: global shutter)")
     p.add_argument("--no-video", action="store_true", help="write truth, IMU, camera and meta only (fast)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
 
 
 def run(args: argparse.Namespace) -> int:
+    from walkmon.commands.progress import Progress  # noqa: PLC0415
     from walkmon.simulate import RenderSettings, simulate  # noqa: PLC0415
 
     settings = RenderSettings(rolling_shutter_s=args.rolling_shutter_ms / 1000.0)
-    result = simulate(
+    with Progress(None, "rendering", "frame", enabled=False if args.no_progress else None) as progress:
+        result = _simulate(simulate, args, settings, progress)
+    what = f"{result.n_frames} frames rendered in {result.render_time_s:.1f} s" if result.video_path else "no video"
+    sys.stdout.write(
+        f"simulated {args.walk!r} seed {args.seed}: {result.duration_s:.2f} s at {result.fps:g} fps "
+        f"({result.camera.width_px}x{result.camera.height_px}), {what} -> {result.out_dir}\n"
+    )
+    return 0
+
+
+def _simulate(simulate, args: argparse.Namespace, settings, progress):  # noqa: ANN001, ANN202
+    return simulate(
         args.out,
         walk=args.walk,
         seconds=args.seconds,
@@ -80,10 +93,5 @@ def run(args: argparse.Namespace) -> int:
         distortion=args.distortion,
         video=not args.no_video,
         render_settings=settings,
+        on_frame=progress.set,
     )
-    what = f"{result.n_frames} frames rendered in {result.render_time_s:.1f} s" if result.video_path else "no video"
-    sys.stdout.write(
-        f"simulated {args.walk!r} seed {args.seed}: {result.duration_s:.2f} s at {result.fps:g} fps "
-        f"({result.camera.width_px}x{result.camera.height_px}), {what} -> {result.out_dir}\n"
-    )
-    return 0
