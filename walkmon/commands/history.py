@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import csv
 import datetime as _dt
+import io
 import sys
 from pathlib import Path
 
@@ -47,17 +48,18 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _write(args: argparse.Namespace, store: object, stats: list, days: list, span: _dt.timedelta) -> None:
+    from walkmon.safe_io import prepare_dir, write_text  # noqa: PLC0415
     from walkmon.views import svg, words  # noqa: PLC0415
     from walkmon.views.history import csv_rows  # noqa: PLC0415
     from walkmon.views.render import render  # noqa: PLC0415
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_dir(args.out)  # 0700, never through a symlink: history is health data
     header, rows = csv_rows(days)
-    with (out / "history.csv").open("w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        w.writerows(rows)
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow(header)
+    w.writerows(rows)
+    write_text(out / "history.csv", buf.getvalue())
     tz = _dt.datetime.now().astimezone().tzname() or "local"
     now = _dt.datetime.now().astimezone()
     period = (f"Sessions started from {(now - span).strftime('%Y-%m-%d %H:%M')} to {now.strftime('%Y-%m-%d %H:%M')}"
@@ -66,4 +68,4 @@ def _write(args: argparse.Namespace, store: object, stats: list, days: list, spa
     html = render("history.html", standalone=True, tz=tz, page="History", since=args.since, person=args.person,
                   persons=[], days=days, kinds=kinds, summary=words.history_summary(days), period=period,
                   trend_svg=svg.trend_svg(days))
-    (out / "history.html").write_text(html, encoding="utf-8")
+    write_text(out / "history.html", html)

@@ -28,12 +28,14 @@ def run(args: argparse.Namespace) -> int:
 
     result = load_session(args.session_id, data_dir_of(args)).analyze(baseline=args.baseline)
     out = Path(args.out or f"session-{args.session_id}")
-    out.mkdir(parents=True, exist_ok=True)
     # the report's first page: the hops (1 s) and alerts the live monitor logged, read through the dashboard's
     # read-only store (an offline analysis without hops gets the report's own per-second fallback)
     from walkmon.gait.report import render_report  # noqa: PLC0415
+    from walkmon.safe_io import prepare_dir, write_text  # noqa: PLC0415
     from walkmon.serve.store import Store  # noqa: PLC0415
     from walkmon.tables import write_indicators  # noqa: PLC0415
+
+    prepare_dir(out)
 
     store = Store(data_dir_of(args))
     stats, _ = store.session(args.session_id)
@@ -47,7 +49,7 @@ def run(args: argparse.Namespace) -> int:
                          stats=stats if timeline else None, person=stats.person,
                          timeline_source="Per second, from the hops and alerts the live monitor logged."
                          if timeline else "")
-    (out / "report.html").write_text(html, encoding="utf-8")
+    write_text(out / "report.html", html)
     label = result.indicators.get("classification", {}).get("label", "?")
     sys.stdout.write(f"session {args.session_id}: {label}; wrote {out / 'indicators.json'} and "
                      f"{out / 'report.html'}\n")

@@ -24,7 +24,7 @@ from walkmon.views.history import SessionStats, local_time
 
 __all__ = ["DEFAULT_THRESHOLDS", "Store"]
 
-DB_FILENAME = "walkmon.sqlite"  # as walkmon.live.session_log.DB_FILENAME (not imported: keeps this module light)
+DB_FILENAME = "walkmon.sqlite"  # as walkmon.live.session_log.DB_FILENAME
 
 #: Alert thresholds used when a session's config does not say (walkmon.live.alerts.AlertSettings defaults).
 DEFAULT_THRESHOLDS = {"lean_forward_deg": 10.0, "shoulder_down_deg": 5.0, "unsteady_roll_swing_deg": 8.0,
@@ -56,16 +56,11 @@ class Store:
     # -- connections --------------------------------------------------------------------------------------
     @contextmanager
     def connect(self) -> Iterator[sqlite3.Connection]:
-        """A read-only connection (closed on exit); InvalidInputError when there is no database yet."""
-        if not self.path.is_file():
-            msg = f"{self.path}: no session database here (run 'walkmon live' or 'walkmon analyze --save' first)"
-            raise InvalidInputError(msg)
-        uri = self.path.resolve().as_uri() + "?mode=ro"
-        try:
-            conn = sqlite3.connect(uri, uri=True, timeout=5.0, check_same_thread=False)
-        except sqlite3.Error as exc:
-            msg = f"{self.path}: cannot open the session database read-only ({exc})"
-            raise InvalidInputError(msg) from exc
+        """A read-only connection (closed on exit): the session log's own read-only opening, which refuses a file
+        that is not walkmon's; InvalidInputError when there is no database yet or it cannot be read."""
+        from walkmon.live.session_log import open_database  # noqa: PLC0415
+
+        conn = open_database(self.path, read_only=True)
         try:
             yield conn
         except sqlite3.DatabaseError as exc:

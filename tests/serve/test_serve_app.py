@@ -182,6 +182,8 @@ def test_the_store_is_read_only_and_reads_older_databases(db: Path, tmp_path: Pa
         CREATE TABLE sessions (id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT NOT NULL, started_utc TEXT NOT NULL,
             ended_utc TEXT, end_reason TEXT, camera TEXT, imu TEXT, config_json TEXT, versions_json TEXT,
             meta_json TEXT, n_frames INTEGER DEFAULT 0, n_dropped INTEGER DEFAULT 0);
+        CREATE TABLE frames (session_id INTEGER NOT NULL, t_s REAL NOT NULL, pitch REAL, yaw REAL, roll REAL,
+            n_inliers INTEGER, model TEXT, status TEXT, latency_ms REAL, pitch_abs REAL, roll_abs REAL, fused INTEGER);
         CREATE TABLE hops (session_id INTEGER NOT NULL, t_s REAL NOT NULL, walking INTEGER, cadence_spm REAL,
             pitch_swing REAL, yaw_swing REAL, roll_swing REAL, pitch_inclination REAL, yaw_inclination REAL,
             roll_inclination REAL, pitch_posture REAL, yaw_posture REAL, roll_posture REAL, step_asymmetry REAL,
