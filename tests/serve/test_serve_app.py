@@ -211,3 +211,15 @@ def test_missing_database_and_bad_requests_are_clear(tmp_path: Path, db: Path) -
     assert c.get("/api/sessions/99").status_code == 404
     assert c.get("/sessions/99").status_code == 404
     assert c.get("/api/history?since=yesterday").status_code == 400
+
+
+def test_a_taken_port_is_one_line(python_cmd: list[str], db: Path) -> None:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        r = subprocess.run([*python_cmd, "serve", "--data-dir", str(db), "--port", str(port)],
+                           capture_output=True, text=True, timeout=60, check=False)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "cannot listen on 127.0.0.1" in r.stderr
