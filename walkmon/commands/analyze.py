@@ -41,10 +41,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 class _Progress:
     """The frames progress bar (tqdm: count, rate and ETA) on stderr, drawn only when stderr is a terminal."""
 
-    def __init__(self, total: int, stream: TextIO | None = None, enabled: bool | None = None) -> None:
+    def __init__(self, total: int, stream: TextIO | None = None, enabled: bool | None = None,
+                 delay_s: float = 0.5) -> None:
         from walkmon.commands.progress import Progress  # noqa: PLC0415
 
-        self._p = Progress(total if total > 0 else None, "analysing", "frame", enabled=enabled, stream=stream)
+        self._p = Progress(total if total > 0 else None, "analysing", "frames", enabled=enabled, stream=stream,
+                           delay_s=delay_s)
         self.enabled = self._p.enabled
         self.total = total
 

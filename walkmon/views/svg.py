@@ -230,7 +230,7 @@ def trend_svg(days: Sequence[Any], *, width: int = 900, title: str = "Trend per 
         out.append(p.frame(label, _ticks(*ylim, n=3)))
         xs = [p.x(i) for i in range(n)]
         if kind == "bar":
-            bw = max(1.0, 0.7 * pw / n)
+            bw = min(40.0, max(1.0, 0.7 * pw / n))
             for i, v in enumerate(vals):
                 y = p.y(v)
                 if y is not None:

@@ -82,7 +82,7 @@ def history_summary(days: Sequence[DayStats]) -> str:
     if not days:
         return "No sessions in this period."
     walk = sum(d.walking_min for d in days)
-    text = f"{walk:.0f} min walked on {_plural(len(days), 'day')}"
+    text = f"{_minutes(walk * 60)} walked on {_plural(len(days), 'day')}"
     up = [(d.upright_pct, d.walking_min) for d in days if math.isfinite(d.upright_pct) and d.walking_min > 0]
     if up:
         mean_up = sum(v * w for v, w in up) / sum(w for _, w in up)
