@@ -25,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from walkmon.errors import ConfigError  # noqa: PLC0415
     from walkmon.live.config import DEFAULT_CONFIG, read_config  # noqa: PLC0415
     from walkmon.live.session_log import default_data_dir  # noqa: PLC0415
-    from walkmon.serve.server import make_server  # noqa: PLC0415
+    from walkmon.serve.server import make_server, warm_up  # noqa: PLC0415
 
     cfg = read_config(args.config) if args.config else DEFAULT_CONFIG
     host = args.host or cfg.serve.host
@@ -37,6 +37,7 @@ def run(args: argparse.Namespace) -> int:
     data_dir = Path(args.data_dir or cfg.session.data_dir or default_data_dir()).expanduser()
     server = make_server(data_dir, host, port, token)
     _check_port(host, port)
+    warm_up(server)
     sys.stderr.write(f"walkmon dashboard on http://{host}:{port}/ (database {data_dir}; Ctrl-C stops)\n")
     server.run()
     return 0

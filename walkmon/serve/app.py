@@ -238,6 +238,7 @@ def create_app(data_dir: Any, *, token: str = "", bound_host: str = "127.0.0.1")
     ]
     app = Starlette(routes=routes, exception_handlers={InvalidInputError: on_invalid, _BadRequest: on_bad})
     app.add_middleware(_Guard, token=token, bound_host=bound_host)
+    app.state.store = store
     return app
 
 

@@ -10,7 +10,7 @@ from typing import Any
 
 from walkmon.errors import ConfigError
 
-__all__ = ["DashboardThread", "check_binding", "make_server"]
+__all__ = ["DashboardThread", "check_binding", "make_server", "warm_up"]
 
 _log = logging.getLogger(__name__)
 
@@ -44,6 +44,21 @@ def make_server(data_dir: str | Path, host: str = "127.0.0.1", port: int = 8765,
     return uvicorn.Server(config)
 
 
+def warm_up(server: Any) -> threading.Thread:
+    """Compute the ended sessions' statistics once in the background (they are cached and never change), so the
+    first history page after a start does not pay for the whole database; a failure only logs."""
+
+    def run() -> None:
+        try:
+            server.config.app.state.store.session_stats()
+        except Exception as exc:  # noqa: BLE001 - no database yet, or unreadable: the pages will say so
+            _log.info("dashboard warm-up skipped: %s", exc)
+
+    th = threading.Thread(target=run, name="walkmon-dashboard-warmup", daemon=True)
+    th.start()
+    return th
+
+
 class DashboardThread:
     """The dashboard in a daemon thread (``[serve] enabled`` in ``walkmon live``); ``stop()`` ends it."""
 
@@ -60,6 +75,7 @@ class DashboardThread:
 
     def start(self) -> DashboardThread:
         self._thread.start()
+        warm_up(self.server)
         return self
 
     def stop(self, timeout_s: float = 5.0) -> None:
