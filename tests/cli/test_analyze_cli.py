@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import cv2
 import numpy as np
 import pytest
@@ -164,9 +166,10 @@ def test_progress_bar_draws_frames_per_second_only_when_enabled():
     p.close()
     assert quiet.getvalue() == ""
     loud = io.StringIO()
-    p = _Progress(10, stream=loud, enabled=True)
+    p = _Progress(10, stream=loud, enabled=True, delay_s=0.0)  # the bar waits 0.5 s before showing, normally
     for _ in range(10):
         p.update()
     p.close()
     text = loud.getvalue()
-    assert "10/10 frames" in text and "frames/s" in text and text.endswith("\n")
+    assert "10/10" in text and "frames/s" in text and text.endswith("\n")
+    assert re.search(r"\[\d\d:\d\d<\d\d:\d\d", text), text  # elapsed<remaining: the ETA

@@ -71,7 +71,7 @@ def test_report_renders_in_headless_chromium(report_path: Path, tmp_path: Path) 
     if browser is None:
         pytest.skip("chromium is not installed (Debian: apt-get install -y chromium); cannot check the rendering")
     png = tmp_path / "shot.png"
-    width, height = 1000, 2400
+    width, height = 1000, 6000  # the paper figures are in the appendix, after the first page
     with tempfile.TemporaryDirectory() as profile:
         cmd = [
             browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",

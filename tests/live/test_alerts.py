@@ -93,14 +93,31 @@ def test_settings_validation_and_reset() -> None:
     assert st.active == ()
 
 
-def test_command_hook_receives_alert_json_on_stdin(tmp_path: Path) -> None:
-    out = tmp_path / "hook.json"
-    script = f"import sys; open({str(out)!r}, 'w').write(sys.stdin.read())"
-    sinks = AlertSinks(SinkSettings(terminal=True, hook_command=(sys.executable, "-c", script)), stream=io.StringIO())
-    ev = AlertEvent(12.0, "lean_forward", "raised", 15.0, 10.0, "leaning forward 15 deg: straighten up")
-    sinks.deliver([ev])
-    sinks.close(wait_s=10.0)
-    assert json.loads(out.read_text()) == ev.to_dict()
+def test_command_hook_receives_alert_json_on_stdin(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import datetime as dt
+    import time
+    from zoneinfo import ZoneInfo
+
+    monkeypatch.setenv("TZ", "America/New_York")
+    time.tzset()
+    try:
+        out = tmp_path / "hook.json"
+        script = f"import sys; open({str(out)!r}, 'w').write(sys.stdin.read())"
+        sinks = AlertSinks(SinkSettings(terminal=True, hook_command=(sys.executable, "-c", script)),
+                           stream=io.StringIO(), session_id=7, person="Ann")
+        ev = AlertEvent(12.0, "lean_forward", "raised", 15.0, 10.0, "leaning forward 15 deg: straighten up")
+        sinks.deliver([ev])
+        sinks.close(wait_s=10.0)
+    finally:
+        monkeypatch.delenv("TZ")
+        time.tzset()
+    doc = json.loads(out.read_text())
+    local = dt.datetime.fromisoformat(doc.pop("time_local"))
+    assert doc == {**ev.to_dict(), "session_id": 7, "person": "Ann"}
+    # ISO 8601 with the wearer's UTC offset (New York's, -5 or -4 h), and the wall-clock time of delivery
+    now_ny = dt.datetime.now(ZoneInfo("America/New_York"))
+    assert local.utcoffset() == now_ny.utcoffset()
+    assert abs((now_ny - local).total_seconds()) < 30
 
 
 def test_failing_sinks_are_logged_not_fatal(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:

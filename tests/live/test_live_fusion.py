@@ -280,6 +280,7 @@ def test_pipeline_keeps_running_when_the_imu_disconnects(tmp_path: Path, GaitSou
 
 def test_a_schema_1_database_is_migrated_and_its_old_frames_read_as_null(tmp_path: Path) -> None:
     from walkmon.live.session_log import (
+        SCHEMA_VERSION,
         SessionLog,
         list_sessions,
         open_database,
@@ -303,8 +304,9 @@ def test_a_schema_1_database_is_migrated_and_its_old_frames_read_as_null(tmp_pat
     assert [s.n_frames for s in list_sessions(tmp_path)] == [1]
     conn = open_database(tmp_path, create=False)
     try:
-        assert conn.execute("PRAGMA user_version").fetchone()[0] == 2
+        assert conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION >= 2
         old = read_session_table(conn, 1, "frames")
+        assert conn.execute("SELECT person FROM sessions").fetchall() == [(None,)]  # schema 3 column, NULL
     finally:
         conn.close()
     assert old["pitch"] == [1.0] and old["pitch_abs"] == [None] and old["fused"] == [None]

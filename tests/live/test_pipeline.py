@@ -189,3 +189,27 @@ def test_a_failing_session_log_ends_the_session_with_the_error(bend_model: GaitM
         p.run()
     (s,) = list_sessions(tmp_path)
     assert s.end_reason.startswith("error") and s.n_frames == 20
+
+
+def test_a_session_ending_while_an_alert_is_raised_clears_it_in_the_log(
+    bend_model: GaitModel, tmp_path: Path, GaitSource, TruthEstimator
+) -> None:
+    from walkmon.live.sinks import AlertSinks, SinkSettings
+
+    # the stream stops at 19 s, mid-bend (bend 10-22 s): the lean-forward alert (raised ~15 s) is still on
+    delivered = []
+
+    class Sinks(AlertSinks):
+        def deliver(self, events: list) -> None:
+            delivered.extend(events)
+
+    res = make_pipeline(GaitSource(bend_model, stop_after_s=19.0), TruthEstimator(bend_model), tmp_path,
+                        sinks=Sinks(SinkSettings(terminal=False))).run()
+    conn = open_database(tmp_path, create=False)
+    alerts = read_session_table(conn, res.session_id, "alerts")
+    conn.close()
+    assert alerts["kind"] == ["lean_forward", "lean_forward"]
+    assert alerts["state"] == ["raised", "cleared"]
+    assert alerts["message"][1] == "session ended: alert cleared"
+    assert alerts["t_s"][1] == pytest.approx(19.0, abs=1 / FPS)  # at the last frame
+    assert [(e.kind, e.state) for e in delivered] == [("lean_forward", "raised"), ("lean_forward", "cleared")]

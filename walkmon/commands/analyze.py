@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 from typing import TextIO
 
@@ -40,29 +39,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 class _Progress:
-    """A one-line progress bar with frames/s on stderr, drawn only when stderr is a terminal."""
+    """The frames progress bar (tqdm: count, rate and ETA) on stderr, drawn only when stderr is a terminal."""
 
-    def __init__(self, total: int, stream: TextIO | None = None, enabled: bool | None = None) -> None:
-        self.stream = stream or sys.stderr
-        self.enabled = self.stream.isatty() if enabled is None else enabled
+    def __init__(self, total: int, stream: TextIO | None = None, enabled: bool | None = None,
+                 delay_s: float = 0.5) -> None:
+        from walkmon.commands.progress import Progress  # noqa: PLC0415
+
+        self._p = Progress(total if total > 0 else None, "analysing", "frames", enabled=enabled, stream=stream,
+                           delay_s=delay_s)
+        self.enabled = self._p.enabled
         self.total = total
-        self.count = 0
-        self.t0 = time.perf_counter()
-        self._last = 0.0
+
+    @property
+    def count(self) -> int:
+        return self._p.count
 
     def update(self, n: int = 1) -> None:
-        self.count += n
-        now = time.perf_counter()
-        if self.enabled and (now - self._last > 0.2 or self.count == self.total):
-            self._last = now
-            fps = self.count / max(now - self.t0, 1e-9)
-            if self.total > 0:
-                frac = min(1.0, self.count / self.total)
-                bar = "#" * int(30 * frac)
-                self.stream.write(f"\r[{bar:<30}] {self.count}/{self.total} frames {fps:6.1f} frames/s")
-            else:
-                self.stream.write(f"\r{self.count} frames {fps:6.1f} frames/s")
-            self.stream.flush()
+        self._p.update(n)
 
     def __call__(self, done: int, total: int) -> None:
         """The progress callback of :func:`walkmon.api.analyze`: ``done`` of ``total`` frames."""
@@ -70,9 +63,7 @@ class _Progress:
         self.update(done - self.count)
 
     def close(self) -> None:
-        if self.enabled:
-            self.stream.write("\n")
-            self.stream.flush()
+        self._p.close()
 
 
 def run(args: argparse.Namespace) -> int:

@@ -8,6 +8,7 @@ import re
 import sys
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -68,19 +69,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", required=True, help="output camera_info YAML path")
 
 
-def _images(source: Path, every: int) -> Iterator[NDArray[np.uint8]]:
+def _images(source: Path, every: int, progress: Any = None) -> Iterator[NDArray[np.uint8]]:
+    """The grey images of a folder or every ``every``-th frame of a video; ``progress.set(done, total)`` per image."""
     import cv2  # noqa: PLC0415
+
+    def tick(done: int, total: int | None) -> None:
+        if progress is not None:
+            progress.set(done, total)
 
     if source.is_dir():
         files = sorted(f for f in source.iterdir() if f.suffix.lower() in _IMAGE_SUFFIXES)
         if not files:
             msg = f"{source}: no images ({', '.join(sorted(_IMAGE_SUFFIXES))}) in this folder"
             raise InvalidInputError(msg)
-        for f in files:
+        for k, f in enumerate(files):
             img = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
             if img is None:
                 msg = f"{f}: cannot decode image"
                 raise InvalidInputError(msg)
+            tick(k + 1, len(files))
             yield img
         return
     if not source.exists():
@@ -90,6 +97,8 @@ def _images(source: Path, every: int) -> Iterator[NDArray[np.uint8]]:
     if not cap.isOpened():
         msg = f"{source}: cannot open as a video"
         raise InvalidInputError(msg)
+    n_frames = int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
+    total = -(-n_frames // max(every, 1)) if n_frames > 0 else None
     try:
         i = 0
         got_any = False
@@ -99,6 +108,7 @@ def _images(source: Path, every: int) -> Iterator[NDArray[np.uint8]]:
                 break
             got_any = True
             if i % max(every, 1) == 0:
+                tick(i // max(every, 1) + 1, total)
                 yield cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
             i += 1
         if not got_any:
@@ -111,10 +121,12 @@ def _images(source: Path, every: int) -> Iterator[NDArray[np.uint8]]:
 def run(args: argparse.Namespace) -> int:
     from walkmon.camera.chessboard import calibrate_chessboard  # noqa: PLC0415
     from walkmon.camera.model import write_camera_yaml  # noqa: PLC0415
+    from walkmon.commands.progress import Progress  # noqa: PLC0415
 
-    result = calibrate_chessboard(
-        _images(Path(args.source), args.every), args.board, args.square_mm, distortion_model=args.model
-    )
+    with Progress(None, "finding the chessboard", "image") as progress:
+        result = calibrate_chessboard(
+            _images(Path(args.source), args.every, progress), args.board, args.square_mm, distortion_model=args.model
+        )
     write_camera_yaml(result.camera, args.out)
     cam = result.camera
     sys.stdout.write(

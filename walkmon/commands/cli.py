@@ -33,6 +33,8 @@ COMMAND_MODULES = (
     "walkmon.commands.config",
     "walkmon.commands.sessions",
     "walkmon.commands.report",
+    "walkmon.commands.history",
+    "walkmon.commands.serve",
 )
 
 EXIT_USAGE = 2

@@ -31,6 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--calib", metavar="YAML", help="camera intrinsics (ROS camera_info YAML)")
     p.add_argument("--method", choices=("fast", "paper"), help="rotation estimator method (default: config, fast)")
     p.add_argument("--data-dir", metavar="DIR", help="session database folder (default ~/.local/share/walkmon)")
+    p.add_argument("--person", metavar="NAME", help="who is walking, stored with the session (default: config "
+                   "[session] person); 'walkmon history --person NAME' shows one person's sessions")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (default: until the source "
                    "ends or SIGINT/SIGTERM)")
     p.add_argument("--status", choices=("auto", "line", "lines", "none"), default="auto",
@@ -158,6 +160,21 @@ def _prune_old_sessions(db_path: Path, retention_days: float) -> None:
               f" ({', '.join(map(str, ids))})" if ids else "")
 
 
+def _start_dashboard(cfg: Any, db_path: Path) -> Any:
+    """``[serve] enabled``: the dashboard in a thread of this process; a failure is logged, monitoring goes on."""
+    if not cfg.serve.enabled:
+        return None
+    try:
+        from walkmon.serve.server import DashboardThread  # noqa: PLC0415
+
+        dashboard = DashboardThread(db_path, cfg.serve.host, cfg.serve.port, cfg.serve.token).start()
+    except (WalkmonError, ImportError, OSError) as exc:
+        _log.warning("dashboard not started: %s", exc)
+        return None
+    _log.info("dashboard on %s", dashboard.url)
+    return dashboard
+
+
 def _run(args: argparse.Namespace) -> int:
     from walkmon.camera.model import read_camera_yaml  # noqa: PLC0415
     from walkmon.drivers.sources import open_camera, open_imu  # noqa: PLC0415
@@ -175,7 +192,8 @@ def _run(args: argparse.Namespace) -> int:
         camera=dataclasses.replace(cfg.camera, url=args.camera or cfg.camera.url, calib=args.calib or cfg.camera.calib),
         imu=dataclasses.replace(cfg.imu, url=args.imu if args.imu is not None else cfg.imu.url),
         rotation=dataclasses.replace(cfg.rotation, method=args.method or cfg.rotation.method),
-        session=dataclasses.replace(cfg.session, data_dir=args.data_dir or cfg.session.data_dir),
+        session=dataclasses.replace(cfg.session, data_dir=args.data_dir or cfg.session.data_dir,
+                                    person=cfg.session.person if args.person is None else args.person),
     )
     if args.duration is not None and not args.duration > 0:
         msg = f"--duration must be > 0, got {args.duration}"
@@ -203,10 +221,11 @@ def _run(args: argparse.Namespace) -> int:
     with _signals.deliver_to(_signals.PendingStop()) as pending:
         log = SessionLog(data_dir, kind="live", camera=cfg.camera.url, imu=cfg.imu.url or (imu.url if imu else ""),
                          config=config_to_dict(cfg), flush_interval_s=cfg.session.flush_interval_s,
-                         log_frames=cfg.session.log_frames)
+                         log_frames=cfg.session.log_frames, person=cfg.session.person)
         sinks = None
         try:
-            sinks = AlertSinks(cfg.sinks, stream=stream if cfg.sinks.terminal else None)
+            sinks = AlertSinks(cfg.sinks, stream=stream if cfg.sinks.terminal else None,
+                               session_id=log.session_id, person=cfg.session.person)
             pipeline = LivePipeline(
                 camera,
                 lambda src: CameraAwareEstimator(src, calib, cfg.rotation.method, cfg.camera.hfov_deg),
@@ -224,7 +243,12 @@ def _run(args: argparse.Namespace) -> int:
             if cfg.session.retention_days > 0:
                 _prune_old_sessions(log.path, cfg.session.retention_days)
             _log.info("session %d: %s -> %s", log.session_id, printable(cfg.camera.url), log.path)
-            res = pipeline.run(args.duration)  # closes the session (or discards it when the start failed)
+            dashboard = _start_dashboard(cfg, log.path)
+            try:
+                res = pipeline.run(args.duration)  # closes the session (or discards it when the start failed)
+            finally:
+                if dashboard is not None:
+                    dashboard.stop()
         except BaseException as exc:
             if not log.closed:  # failed before the pipeline ran: nothing recorded
                 log.discard(f"start failed: {exc!r}")

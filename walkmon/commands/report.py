@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from walkmon.commands.indicators import _existing_file as existing_small_file
 from walkmon.commands.sessions import session_id_arg
@@ -27,8 +28,29 @@ def run(args: argparse.Namespace) -> int:
 
     result = load_session(args.session_id, data_dir_of(args)).analyze(baseline=args.baseline)
     out = Path(args.out or f"session-{args.session_id}")
-    files = result.write(out, angles=False)
+    # the report's first page: the hops (1 s) and alerts the live monitor logged, read through the dashboard's
+    # read-only store (an offline analysis without hops gets the report's own per-second fallback)
+    from walkmon.gait.report import render_report  # noqa: PLC0415
+    from walkmon.safe_io import prepare_dir, write_text  # noqa: PLC0415
+    from walkmon.serve.store import Store  # noqa: PLC0415
+    from walkmon.tables import write_indicators  # noqa: PLC0415
+
+    prepare_dir(out)
+
+    store = Store(data_dir_of(args))
+    stats, _ = store.session(args.session_id)
+    timeline: dict[str, Any] | None = store.timeline(args.session_id)
+    if timeline is not None and not timeline["hops"]["t_s"]:
+        timeline = None
+    write_indicators(out / "indicators.json", result.gait)
+    html = render_report(result.t_s, result.angles_deg, result.gait, result.baseline, dict(result.meta),
+                         settings=result.settings, reference_deg=result.reference_deg,
+                         abs_angles_deg=result.abs_angles_deg, timeline=timeline,
+                         stats=stats if timeline else None, person=stats.person,
+                         timeline_source="Per second, from the hops and alerts the live monitor logged."
+                         if timeline else "")
+    write_text(out / "report.html", html)
     label = result.indicators.get("classification", {}).get("label", "?")
-    sys.stdout.write(f"session {args.session_id}: {label}; wrote {files['indicators.json']} and "
-                     f"{files['report.html']}\n")
+    sys.stdout.write(f"session {args.session_id}: {label}; wrote {out / 'indicators.json'} and "
+                     f"{out / 'report.html'}\n")
     return 0

@@ -70,9 +70,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a random session as unkind as life, drawn from --seed around the --walk type: random "
                         "standing or mid-walk start and end, pauses, 90/180 degree turns, gait initiation and "
                         "termination, a posture change mid-walk (the script is printed and kept in meta.json)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
 
 
 def run(args: argparse.Namespace) -> int:
+    from walkmon.commands.progress import Progress  # noqa: PLC0415
     from walkmon.simulate import RenderSettings, simulate  # noqa: PLC0415
 
     settings = RenderSettings(rolling_shutter_s=args.rolling_shutter_ms / 1000.0)
@@ -81,7 +83,18 @@ def run(args: argparse.Namespace) -> int:
         from walkmon.simulate.unkind import unkind_script  # noqa: PLC0415
 
         walk = unkind_script(args.seed, args.walk)
-    result = simulate(
+    with Progress(None, "rendering", "frame", enabled=False if args.no_progress else None) as progress:
+        result = _simulate(simulate, args, walk, settings, progress)
+    what = f"{result.n_frames} frames rendered in {result.render_time_s:.1f} s" if result.video_path else "no video"
+    sys.stdout.write(
+        f"simulated {walk!r} seed {args.seed}: {result.duration_s:.2f} s at {result.fps:g} fps "
+        f"({result.camera.width_px}x{result.camera.height_px}), {what} -> {result.out_dir}\n"
+    )
+    return 0
+
+
+def _simulate(simulate, args: argparse.Namespace, walk: str, settings, progress):  # noqa: ANN001, ANN202
+    return simulate(
         args.out,
         walk=walk,
         seconds=args.seconds,
@@ -92,10 +105,5 @@ def run(args: argparse.Namespace) -> int:
         distortion=args.distortion,
         video=not args.no_video,
         render_settings=settings,
+        on_frame=progress.set,
     )
-    what = f"{result.n_frames} frames rendered in {result.render_time_s:.1f} s" if result.video_path else "no video"
-    sys.stdout.write(
-        f"simulated {walk!r} seed {args.seed}: {result.duration_s:.2f} s at {result.fps:g} fps "
-        f"({result.camera.width_px}x{result.camera.height_px}), {what} -> {result.out_dir}\n"
-    )
-    return 0

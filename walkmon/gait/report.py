@@ -12,11 +12,11 @@ Matplotlib is used through its object API on the Agg canvas (no pyplot, no globa
 from __future__ import annotations
 
 import base64
-import html
+import contextlib
 import io
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
 from typing import Any
 
@@ -34,7 +34,7 @@ from walkmon.gait.indicators import (
     analyze_gait,
 )
 
-__all__ = ["TABLE3_ROWS", "render_report", "render_report_html"]
+__all__ = ["TABLE3_ROWS", "render_report", "render_report_html", "timeline_from_angles", "timeline_from_columns"]
 
 _log = logging.getLogger(__name__)
 
@@ -148,16 +148,16 @@ def _figures(an: GaitAnalysis) -> list[tuple[str, str]]:
     return out
 
 
-def _absolute_section(t_s: np.ndarray, rel_deg: np.ndarray, abs_deg: np.ndarray | None) -> str:
-    """The absolute pitch/roll section ('' without any finite absolute angle, e.g. a camera-only session)."""
+def _absolute_section(t_s: np.ndarray, rel_deg: np.ndarray, abs_deg: np.ndarray | None) -> dict[str, Any] | None:
+    """The absolute pitch/roll section's statistics and figure (None without any finite absolute angle)."""
     if abs_deg is None or not np.isfinite(abs_deg).any():
-        return ""
+        return None
     have = np.isfinite(abs_deg).all(axis=1)
-    stats: dict[str, Any] = {"frames with absolute angles": f"{int(have.sum())} of {have.size}"}
+    stats: list[tuple[str, Any]] = [("frames with absolute angles", f"{int(have.sum())} of {have.size}")]
     for k, name in enumerate(("pitch_abs", "roll_abs")):
         v = abs_deg[have, k]
-        stats.update({f"{name} mean [deg]": float(v.mean()), f"{name} min [deg]": float(v.min()),
-                      f"{name} max [deg]": float(v.max()), f"{name} std [deg]": float(v.std())})
+        stats += [(f"{name} mean [deg]", float(v.mean())), (f"{name} min [deg]", float(v.min())),
+                  (f"{name} max [deg]", float(v.max())), (f"{name} std [deg]", float(v.std()))]
     fig, axs = _figure(2, "Absolute pitch and roll (against gravity) and the start-relative angles")
     for k, (axis, ax) in enumerate(zip(("pitch", "roll"), axs, strict=True)):
         col = AXES.index(axis)
@@ -166,19 +166,13 @@ def _absolute_section(t_s: np.ndarray, rel_deg: np.ndarray, abs_deg: np.ndarray 
         ax.set_ylabel("deg")
         ax.legend(loc="upper right", fontsize=8)
     axs[-1].set_xlabel("time [s]")
-    title = "Absolute pitch and roll (IMU fusion)"
-    return (f"<h2>{title}</h2>\n<p class='small'>Pitch and roll against gravity, from the camera-IMU fusion "
-            "(0 = upright camera, no drift); blank where a frame was not fused.</p>\n"
-            f"{_kv_table(stats)}\n<figure><img alt='{title}' src='data:image/png;base64,{_png(fig)}'>"
-            f"<figcaption class='small'>{title}</figcaption></figure>")
+    return {"stats": stats, "png": _png(fig)}
 
 
 def _fmt(v: Any, digits: int = 3) -> str:
-    if v is None:
-        return "&ndash;"
-    if isinstance(v, float):
-        return f"{v:.{digits}f}" if math.isfinite(v) else "&ndash;"
-    return html.escape(str(v))
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "\u2013"
+    return f"{v:.{digits}f}" if isinstance(v, float) else str(v)
 
 
 def _value(doc: Mapping[str, Any], axis: str, key: str) -> float:
@@ -186,48 +180,80 @@ def _value(doc: Mapping[str, Any], axis: str, key: str) -> float:
     return float("nan") if v is None else float(v)
 
 
-def _indicator_table(doc: Mapping[str, Any], base: Mapping[str, Any] | None) -> str:
-    head = "<tr><th>indicator [deg]</th><th>this walk</th>"
-    if base is not None:
-        head += "<th>baseline</th><th>difference</th>"
-    rows = [head + "</tr>"]
+def _table3(doc: Mapping[str, Any], base: Mapping[str, Any] | None) -> tuple[list[tuple[Any, ...]], list[tuple[Any, ...]]]:
+    """Rows of the paper's Table 3 (label markup, this walk[, baseline, difference]) and the extra rows."""
+    from markupsafe import Markup  # noqa: PLC0415
+
+    rows = []
     for label, axis, key in TABLE3_ROWS:
         v = _value(doc, axis, key)
-        row = f"<tr><td>{label}</td><td>{_fmt(v)}</td>"
+        row: tuple[Any, ...] = (Markup(label), v)
         if base is not None:
             b = _value(base, axis, key)
-            row += f"<td>{_fmt(b)}</td><td>{_fmt(v - b)}</td>"
-        rows.append(row + "</tr>")
-    extra = [("cadence [steps/min]", "cadence_spm", 1), ("walking analysed [s]", "walking_s", 1)]
-    for label, key, digits in extra:
-        value = doc.get(key)
-        row = f"<tr><td>{label}</td><td>{_fmt(None if value is None else float(value), digits)}</td>"
+            row += (b, v - b)
+        rows.append(row)
+    extra = []
+    for label, key, digits in (("cadence [steps/min]", "cadence_spm", 1), ("walking analysed [s]", "walking_s", 1)):
+        raw = doc.get(key)
+        fv = None if raw is None else float(raw)
+        row = (label, digits, fv)
         if base is not None:
-            base_value = base.get(key)
-            d = None if (value is None or base_value is None) else float(value) - float(base_value)
-            row += (f"<td>{_fmt(None if base_value is None else float(base_value), digits)}</td>"
-                    f"<td>{_fmt(d, digits)}</td>")
-        rows.append(row + "</tr>")
-    cycles = ", ".join(f"{a} {doc['axes'][a].get('n_cycles', 0)}" for a in AXES)
-    rows.append(f"<tr><td>cycles used</td><td colspan='3'>{html.escape(cycles)}</td></tr>")
-    return "<table>" + "".join(rows) + "</table>"
+            raw_base = base.get(key)
+            fb = None if raw_base is None else float(raw_base)
+            row += (fb, None if (fv is None or fb is None) else fv - fb)
+        extra.append(row)
+    return rows, extra
 
 
-def _kv_table(items: Mapping[str, Any]) -> str:
-    rows = "".join(f"<tr><td>{html.escape(str(k))}</td><td>{_fmt(v)}</td></tr>" for k, v in items.items())
-    return f"<table>{rows}</table>"
+def timeline_from_angles(t_s: np.ndarray, angles_deg: np.ndarray, doc: Mapping[str, Any],
+                         hop_s: float = 1.0) -> dict[str, Any]:
+    """A per-second timeline from the angles alone (when neither hops nor a gait timeline exist): the mean
+    pitch and roll of each second relative to the upright reference; activity ``standing`` in the detected
+    standing phases, ``walking`` inside the analysed walking interval (labelled with the walk's one label),
+    ``unknown`` elsewhere."""
+    t = np.asarray(t_s, float)
+    a = np.asarray(angles_deg, float)
+    ref = doc.get("reference_deg") or {}
+    rp, rr = float(ref.get("pitch") or 0.0), float(ref.get("roll") or 0.0)
+    label = doc.get("classification", {}).get("label", "")
+    walk = doc.get("walking_interval_s") or [None, None]
+    stands = [s for s in (doc.get("standing_start_s"), doc.get("standing_end_s")) if s]
+    cols: dict[str, list[Any]] = {k: [] for k in ("t_s", "walking", "activity", "label", "pitch", "roll")}
+    if t.size == 0:
+        return {"hops": cols, "alerts": [], "thresholds": {}, "hop_s": hop_s}
+    edges = np.arange(t[0], t[-1] + hop_s, hop_s)
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        sel = (t >= lo) & (t < hi)
+        if not sel.any():
+            continue
+        mid = 0.5 * (lo + hi)
+        walking = walk[0] is not None and walk[1] is not None and walk[0] <= mid <= walk[1]
+        standing = any(s[0] is not None and s[0] <= mid <= s[1] for s in stands)
+        cols["t_s"].append(float(hi - t[0]))
+        cols["walking"].append(bool(walking))
+        cols["activity"].append("walking" if walking else "standing" if standing else "unknown")
+        cols["label"].append(label if walking else "")
+        cols["pitch"].append(float(np.mean(a[sel, 0])) - rp)
+        cols["roll"].append(float(np.mean(a[sel, 2])) - rr)
+    return {"hops": cols, "alerts": [], "thresholds": {}, "hop_s": hop_s}
 
 
-_CSS = """
-body{font-family:system-ui,-apple-system,Segoe UI,sans-serif;margin:24px auto;max-width:1000px;color:#222}
-h1{font-size:1.6em;margin-bottom:0}h2{font-size:1.2em;margin-top:1.6em;border-bottom:1px solid #ccc}
-table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ccc;padding:3px 10px;text-align:right}
-td:first-child,th:first-child{text-align:left}th{background:#f0f0f0}
-.label{font-size:1.4em;font-weight:bold;padding:8px 14px;display:inline-block;border-radius:6px;background:#e8f0fe}
-.label.normal{background:#e6f4ea}.label.unclassified{background:#eee}
-figure{margin:12px 0}figure img{width:100%;height:auto;border:1px solid #ddd}
-.small{color:#666;font-size:.9em}
-"""
+def timeline_from_columns(cols: Mapping[str, Sequence[Any]], hop_s: float = 1.0) -> dict[str, Any]:
+    """The gait analysis's timeline.csv (``t,activity,label,pitch,roll`` at 1 s) in the timeline shape."""
+    activity = [str(v or "") for v in cols["activity"]]
+    walking = [act == "walking" for act in activity]
+
+    def num(v: Any) -> float | None:
+        try:
+            f = float(v)
+        except (TypeError, ValueError):
+            return None
+        return f if math.isfinite(f) else None
+
+    return {"hops": {"t_s": [float(v) for v in cols["t"]], "walking": walking, "activity": activity,
+                     "label": [str(v or "") for v in cols["label"]], "pitch": [num(v) for v in cols["pitch"]],
+                     "roll": [num(v) for v in cols["roll"]]},
+            "alerts": [], "thresholds": {}, "hop_s": hop_s}
 
 
 def render_report_html(
@@ -237,56 +263,109 @@ def render_report_html(
     meta: Mapping[str, Any] | None = None,
     *,
     abs_angles_deg: ArrayLike | None = None,
+    timeline: Mapping[str, Any] | None = None,
+    timeline_source: str = "",
+    stats: Any = None,
+    person: str = "",
 ) -> str:
-    """The report as one HTML string (see :func:`write_report`); ``abs_angles_deg`` (N, 2) at ``analysis.t_s``."""
+    """The report as one HTML string (see :func:`render_report`); ``abs_angles_deg`` (N, 2) at ``analysis.t_s``.
+
+    First page in plain words: the summary sentence, the timeline figure (``timeline``: hops and alerts of a
+    logged session, or the gait analysis's timeline; without one, :func:`timeline_from_angles`), the time in
+    each posture and the alerts; then the appendix: the paper's Table 3, asymmetry, Figures 3-8, the absolute
+    angles and the session details. ``stats``: the session's :class:`walkmon.views.history.SessionStats`.
+    """
+    from walkmon.views import svg, words  # noqa: PLC0415
+    from walkmon.views.render import describe_label, render  # noqa: PLC0415
+
     doc = indicators.to_dict()
     base = baseline.to_dict() if isinstance(baseline, Indicators) else baseline
     cls = doc["classification"]
-    label = html.escape(cls["label"])
-    reasons = "".join(f"<li>{html.escape(r)}</li>" for r in cls["reasons"]) or "<li>(none)</li>"
-    figures = "".join(
-        f"<figure><img alt='{html.escape(title)}' src='data:image/png;base64,{png}'>"
-        f"<figcaption class='small'>{html.escape(title)}</figcaption></figure>"
-        for title, png in _figures(analysis)
-    )
-    session = {
-        "generated (UTC)": datetime.now(UTC).strftime("%Y-%m-%d %H:%M:%S"),
-        "walkmon version": __version__,
-        "processing mode": doc["mode"],
-        "status": doc["status"],
-        "duration [s]": doc["duration_s"],
-        "analysed span [s]": " - ".join(_fmt(v, 2) for v in doc["walking_interval_s"]),
-        "standing at start [s]": " - ".join(_fmt(v, 2) for v in (doc["standing_start_s"] or [None, None])),
-        "standing at end [s]": " - ".join(_fmt(v, 2) for v in (doc["standing_end_s"] or [None, None])),
-        "baseline given": "yes" if base is not None else "no (default absolute thresholds)",
-    }
+    if timeline is None:
+        timeline = timeline_from_angles(analysis.t_s, analysis.raw_deg, doc)
+        timeline_source = timeline_source or ("Per second, from the angles alone: one label for the analysed walk "
+                                              "(no per-second classification was logged for this recording).")
+    tl = dict(timeline)
+    tl.setdefault("thresholds", {})
+    cadence = doc.get("cadence_spm")
+    summary = _summary(tl, stats, doc, base, words)
+    session: list[tuple[str, Any]] = [
+        ("generated (local time)", datetime.now(UTC).astimezone().strftime("%Y-%m-%d %H:%M:%S %Z")),
+        ("walkmon version", __version__), ("processing mode", doc["mode"]), ("status", doc["status"]),
+        ("duration [s]", doc["duration_s"]),
+        ("analysed span [s]", " - ".join(_fmt(v, 2) for v in doc["walking_interval_s"])),
+        ("standing at start [s]", " - ".join(_fmt(v, 2) for v in (doc["standing_start_s"] or [None, None]))),
+        ("standing at end [s]", " - ".join(_fmt(v, 2) for v in (doc["standing_end_s"] or [None, None]))),
+        ("baseline given", "yes" if base is not None else "no (default absolute thresholds)"),
+    ]
     for k, v in (meta or {}).items():
-        session[str(k)] = v if isinstance(v, int | float | str) or v is None else str(v)
-    ref = {f"{k} reference (upright) [deg]": v for k, v in doc["reference_deg"].items()}
-    ref.update({f"{k} drift removed [deg]": v for k, v in doc["drift_removed_deg"].items()})
-    absolute = _absolute_section(analysis.t_s, analysis.raw_deg,
-                                 None if abs_angles_deg is None else np.asarray(abs_angles_deg, float).reshape(-1, 2))
-    return f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>walkmon gait report</title>
-<style>{_CSS}</style></head><body>
-<h1>walkmon gait report</h1>
-<p class="small">Trunk rotation of a chest-worn camera while walking: the indicators of Sec. 4-5 of the
-reference paper (swing &phi; = a &minus; b and inclination &rho; = (a + b)/2 per gait cycle, Eq. 9-15).</p>
-<h2>Classification</h2>
-<p><span class="label {label}">{label}</span> &nbsp; cadence {_fmt(doc['cadence_spm'], 1)} steps/min</p>
-<ul>{reasons}</ul>
-<h2>Indicators (paper Table 3 layout)</h2>
-{_indicator_table(doc, base)}
-<h2>Left/right asymmetry (alternate steps)</h2>
-{_kv_table(doc['asymmetry'])}
-<h2>Figures</h2>
-{figures}
-{absolute}
-<h2>Session</h2>
-{_kv_table(session)}
-{_kv_table(ref) if ref else ''}
-</body></html>
-"""
+        session.append((str(k), v if isinstance(v, int | float | str) or v is None else str(v)))
+    reference = [(f"{k} reference (upright) [deg]", v) for k, v in doc["reference_deg"].items()]
+    reference += [(f"{k} drift removed [deg]", v) for k, v in doc["drift_removed_deg"].items()]
+    table3, extra_rows = _table3(doc, base)
+    legend = svg.legend(tl)
+    when = ""
+    started = (meta or {}).get("started_utc")
+    if isinstance(started, str):
+        from walkmon.views.history import local_time  # noqa: PLC0415
+
+        with contextlib.suppress(ValueError):
+            when = "Recorded " + local_time(started).strftime("%A %d %B %Y, %H:%M %Z")
+    text = render(
+        "report.html", standalone=True, person=person or (stats.person if stats is not None else ""), when=when,
+        source=str((meta or {}).get("source") or ""), summary=summary, label=cls["label"],
+        label_words=describe_label(cls["label"]), cadence=cadence, reasons=list(cls["reasons"]),
+        timeline_svg=svg.timeline_svg(tl, title="Posture per second"), legend=legend,
+        timeline_source=timeline_source, postures=words.posture_times(tl),
+        alerts=tl["alerts"] if stats is not None or tl["alerts"] else None,
+        has_baseline=base is not None, table3=table3, extra_rows=extra_rows,
+        cycles=", ".join(f"{a} {doc['axes'][a].get('n_cycles', 0)}" for a in AXES),
+        asymmetry=list(doc["asymmetry"].items()), figures=_figures(analysis),
+        absolute=_absolute_section(analysis.t_s, analysis.raw_deg,
+                                   None if abs_angles_deg is None else np.asarray(abs_angles_deg, float).reshape(-1, 2)),
+        session=session, reference=reference)
+    return text.lstrip()
+
+
+def _summary(tl: Mapping[str, Any], stats: Any, doc: Mapping[str, Any], base: Mapping[str, Any] | None,
+             words: Any) -> str:
+    """The first page's sentence: from the session's statistics, else from the timeline and the indicators."""
+    from walkmon.views.history import SessionStats  # noqa: PLC0415
+
+    if stats is None:
+        hops = tl["hops"]
+        hop_s = float(tl.get("hop_s", 1.0))
+        th = tl.get("thresholds") or {}
+        lean, shoulder = float(th.get("lean_forward_deg", 10.0)), float(th.get("shoulder_down_deg", 5.0))
+        known = [(p, r) for w, p, r in zip(hops["walking"], hops["pitch"], hops["roll"], strict=True)
+                 if w and p is not None and r is not None]
+        upright = sum(1 for p, r in known if -p <= lean and abs(r) <= shoulder)
+        walking_s = float(doc.get("walking_s") or 0.0) or sum(hops["walking"]) * hop_s
+        alerts: dict[str, int] = {}
+        for ev in tl.get("alerts", []):
+            if ev["state"] == "raised":
+                alerts[ev["kind"]] = alerts.get(ev["kind"], 0) + 1
+        pitch = [p for p, _ in known]
+        stats = SessionStats(
+            id=0, kind="analysis", person="", started_utc="1970-01-01T00:00:00+00:00", ended_utc=None,
+            end_reason=None, camera="", hop_s=hop_s, recorded_s=len(hops["t_s"]) * hop_s, walking_s=walking_s,
+            upright_s=upright * hop_s, posture_known_s=len(known) * hop_s,
+            cadence_spm=float(doc.get("cadence_spm") or math.nan),
+            pitch_deg=float(np.mean(pitch)) if pitch else math.nan, roll_deg=math.nan, asymmetry=math.nan,
+            alerts=alerts)
+    text = words.session_summary(stats)
+    if base is not None:
+        base_cadence = float(base.get("cadence_spm") or math.nan)
+        base_pitch = _value(base, "pitch", "inclination_mean")
+
+        class _Base:
+            upright_pct = math.nan
+            cadence_spm = base_cadence
+            pitch_deg = base_pitch
+
+        text += " " + words.compare(math.nan, float(doc.get("cadence_spm") or math.nan),
+                                    _value(doc, "pitch", "inclination_mean"), _Base(), "your baseline")
+    return text
 
 
 def render_report(
@@ -299,13 +378,18 @@ def render_report(
     settings: IndicatorSettings | None = None,
     reference_deg: ArrayLike | None = None,
     abs_angles_deg: ArrayLike | None = None,
+    timeline: Mapping[str, Any] | None = None,
+    timeline_source: str = "",
+    stats: Any = None,
+    person: str = "",
 ) -> str:
     """The self-contained report.html of one walk, as a string (the caller writes it: gait does no I/O).
 
     The figures are recomputed with :func:`walkmon.gait.indicators.analyze_gait` in ``indicators.mode`` (or with
     ``settings``); the tables show ``indicators`` as given. ``abs_angles_deg`` (N, 2): the fused absolute
     pitch and roll at the same ``t_s`` (NaN where a frame was not fused) adds their section; none, or all NaN:
-    no section.
+    no section. ``timeline`` (hops and alerts of a logged session, or the gait analysis's timeline.csv via
+    :func:`timeline_from_columns`) drives the first page's timeline figure; ``stats`` its summary sentence.
     """
     if abs_angles_deg is not None:
         abs_angles_deg = np.asarray(abs_angles_deg, dtype=float)
@@ -324,4 +408,5 @@ def render_report(
         # irregular time stamps (dropped frames): the analysis resampled the angles onto a uniform grid, and
         # the absolute angles are plotted beside them, so they go onto the same grid
         abs_angles_deg = np.column_stack([np.interp(analysis.t_s, t_in, abs_angles_deg[:, k]) for k in range(2)])
-    return render_report_html(analysis, indicators, baseline, meta, abs_angles_deg=abs_angles_deg)
+    return render_report_html(analysis, indicators, baseline, meta, abs_angles_deg=abs_angles_deg,
+                              timeline=timeline, timeline_source=timeline_source, stats=stats, person=person)

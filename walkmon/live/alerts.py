@@ -182,6 +182,16 @@ class AlertStage:
                     events.append(self._clear(cond, st, t, value, off_thr, f"{cond.replace('_', ' ')}: cleared"))
         return events
 
+    def close(self, t_s: float) -> list[AlertEvent]:
+        """The session ends at capture time ``t_s``: clear every raised alert (so the log never keeps an alert
+        raised forever) and return those ``cleared`` events."""
+        events = []
+        for cond, st in self._states.items():
+            if st.active:
+                _measure, _on, off_thr, _template = self._measures[cond]
+                events.append(self._clear(cond, st, t_s, math.nan, off_thr, "session ended: alert cleared"))
+        return events
+
     @staticmethod
     def _clear(cond: str, st: _State, t: float, value: float, thr: float, msg: str) -> AlertEvent:
         st.active, st.pending_since, st.clear_since, st.last_cleared = False, None, None, t

@@ -3,7 +3,7 @@
 Every section is a frozen settings dataclass owned by the stage it configures (``indicators`` →
 :class:`~walkmon.gait.live.LiveIndicatorSettings`, ``alerts`` → :class:`~walkmon.live.alerts.AlertSettings`,
 ``sinks`` → :class:`~walkmon.live.sinks.SinkSettings`) or defined here (``camera``, ``imu``, ``rotation``,
-``pipeline``, ``session``). Unknown sections or keys, wrong types and out-of-range values raise
+``pipeline``, ``session``, ``serve``). Unknown sections or keys, wrong types and out-of-range values raise
 :class:`~walkmon.errors.ConfigError` naming the key. See ``deploy/walkmon.toml`` for every key with its default.
 """
 
@@ -28,6 +28,7 @@ __all__ = [
     "ImuSettings",
     "PipelineSettings",
     "RotationMethodSettings",
+    "ServeSettings",
     "SessionSettings",
     "config_from_dict",
     "config_to_dict",
@@ -177,6 +178,8 @@ class SessionSettings:
     #: When ``walkmon live`` starts, delete ended sessions that started more than this many days ago (as
     #: ``walkmon sessions prune --older-than``); 0: keep everything.
     retention_days: float = 0.0
+    #: Who is walking (stored with each session; one device or clinic database may hold several people).
+    person: str = ""
 
     def __post_init__(self) -> None:
         if not 0 < self.flush_interval_s <= 1.0:
@@ -184,6 +187,30 @@ class SessionSettings:
             raise ValueError(msg)
         if not self.retention_days >= 0:
             msg = f"session.retention_days must be >= 0 (0: keep everything), got {self.retention_days}"
+            raise ValueError(msg)
+
+
+@dataclass(frozen=True, slots=True)
+class ServeSettings:
+    """The local dashboard (``walkmon serve``; with ``enabled``, ``walkmon live`` also serves it in a thread)."""
+
+    enabled: bool = False
+    #: Address to listen on; anything but loopback (127.0.0.1, ::1, localhost) needs ``token``.
+    host: str = "127.0.0.1"
+    port: int = 8765
+    #: Required on every request when set (Authorization: Bearer TOKEN, or ?token=TOKEN once); >= 12 characters.
+    token: str = ""
+
+    def __post_init__(self) -> None:
+        if not 0 < self.port < 65536:
+            msg = f"serve.port must be in 1..65535, got {self.port}"
+            raise ValueError(msg)
+        if self.token and len(self.token) < 12:
+            msg = "serve.token must have at least 12 characters"
+            raise ValueError(msg)
+        loopback = self.host.lower() in ("localhost", "::1", "[::1]") or self.host.startswith("127.")
+        if not loopback and not self.token:
+            msg = f"serve.host = {self.host!r} is not loopback: set serve.token too (requests without it get 401)"
             raise ValueError(msg)
 
 
@@ -199,6 +226,7 @@ class Config:
     indicators: LiveIndicatorSettings = field(default_factory=LiveIndicatorSettings)
     alerts: AlertSettings = field(default_factory=AlertSettings)
     sinks: SinkSettings = field(default_factory=SinkSettings)
+    serve: ServeSettings = field(default_factory=ServeSettings)
 
 
 DEFAULT_CONFIG = Config()

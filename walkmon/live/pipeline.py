@@ -649,7 +649,16 @@ class LivePipeline:
             if self.imu is not None:
                 self.imu.close()
                 self._drain_imu()
+            # alerts still raised when the session ends are cleared in the log (and told to the sinks)
+            closing = self.alerts.close(last_t if math.isfinite(last_t) else 0.0)
+            for ev in closing:
+                self._writer.call(self.log.add_alert, ev)
             if self.sinks is not None:
+                if closing:
+                    try:
+                        self.sinks.deliver(closing)
+                    except Exception:  # a sink must not hide why the session ended
+                        _log.exception("delivering the session-end alert clears failed")
                 self.sinks.close()
             if self._thread_errors and error is None:
                 self._end_reason = f"error: {self._thread_errors[0]}"

@@ -7,7 +7,8 @@ the last second and never corrupts the database (each commit is atomic and fsync
 Tables (angles in degrees, times ``t_s`` in seconds of capture time):
 
 * ``sessions``: id, kind (live/analyze), started_utc, ended_utc, end_reason, camera, imu, config_json,
-  versions_json, meta_json, n_frames, n_dropped
+  versions_json, meta_json, n_frames, n_dropped, person (schema 3: who walked, optional; one device or clinic
+  database may hold several people; NULL in older rows)
 * ``frames``: session_id, t_s, pitch, yaw, roll, n_inliers, model, status, latency_ms, pitch_abs, roll_abs,
   fused (schema 2: the gravity-referenced angles and 1/0 fused/camera-only when an IMU was fused, NULL
   otherwise; databases of schema 1 get the columns added, NULL in their old rows, when opened)
@@ -56,7 +57,7 @@ __all__ = [
 _log = logging.getLogger(__name__)
 
 DB_FILENAME = "walkmon.sqlite"
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS sessions (
@@ -71,7 +72,8 @@ CREATE TABLE IF NOT EXISTS sessions (
     versions_json TEXT,
     meta_json TEXT,
     n_frames INTEGER DEFAULT 0,
-    n_dropped INTEGER DEFAULT 0
+    n_dropped INTEGER DEFAULT 0,
+    person TEXT
 );
 CREATE TABLE IF NOT EXISTS frames (
     session_id INTEGER NOT NULL, t_s REAL NOT NULL, pitch REAL, yaw REAL, roll REAL,
@@ -282,7 +284,8 @@ def open_database(data_dir: str | Path, *, create: bool = True, read_only: bool 
 
 
 #: Columns added after schema 1: (table, column, SQL type); all nullable, so old rows read as NULL.
-_ADDED_COLUMNS = (("frames", "pitch_abs", "REAL"), ("frames", "roll_abs", "REAL"), ("frames", "fused", "INTEGER"))
+_ADDED_COLUMNS = (("frames", "pitch_abs", "REAL"), ("frames", "roll_abs", "REAL"), ("frames", "fused", "INTEGER"),
+                  ("sessions", "person", "TEXT"))
 
 
 def _migrate(conn: sqlite3.Connection) -> None:
@@ -326,6 +329,7 @@ class SessionLog:
         meta: dict[str, object] | None = None,
         flush_interval_s: float = 0.5,
         log_frames: bool = True,
+        person: str = "",
     ) -> None:
         if flush_interval_s <= 0:
             msg = f"flush_interval_s must be > 0, got {flush_interval_s}"
@@ -337,15 +341,17 @@ class SessionLog:
         try:
             with self._conn:
                 cur = self._conn.execute(
-                    "INSERT INTO sessions (kind, started_utc, camera, imu, config_json, versions_json, meta_json) "
-                    "VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    "INSERT INTO sessions (kind, started_utc, camera, imu, config_json, versions_json, meta_json, "
+                    "person) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
                     (kind, _utc_now(), camera, imu, json.dumps(config or {}, sort_keys=True, default=str),
-                     json.dumps(versions(), sort_keys=True), json.dumps(meta or {}, sort_keys=True, default=str)),
+                     json.dumps(versions(), sort_keys=True), json.dumps(meta or {}, sort_keys=True, default=str),
+                     person or None),
                 )
         except sqlite3.Error as exc:
             self._conn.close()
             raise _db_error(self.path, exc) from exc
         self.session_id = int(cur.lastrowid or 0)
+        self.person = person
         #: True once another process deleted this session while it was recorded: nothing more is written
         self.deleted = False
         self._buffers: dict[str, list[tuple[object, ...]]] = {name: [] for name in TABLE_COLUMNS}
@@ -621,6 +627,7 @@ def record_offline_session(
     extra: Iterable[tuple[int, str, str]] | None = None,
     abs_angles_deg: Iterable[Sequence[float]] | None = None,
     fused: Iterable[bool] | None = None,
+    person: str = "",
 ) -> int:
     """Store an offline analysis (``walkmon analyze --save``) as a session of kind ``analyze``; its id.
 
@@ -637,7 +644,7 @@ def record_offline_session(
             msg = f"{name}: {len(values)} rows for {len(t_list)} frames"
             raise InvalidInputError(msg)
     log = SessionLog(data_dir, kind="analyze", camera=source, imu=imu, config=config, meta=meta,
-                     flush_interval_s=3600)
+                     flush_interval_s=3600, person=person)
     for i, (t, a) in enumerate(zip(t_list, a_list, strict=True)):
         n_inl, model, status = columns["extra"][i] if columns["extra"] is not None else (-1, "", "")
         log.add_frame(t, a, n_inl, model, status,

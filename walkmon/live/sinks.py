@@ -1,17 +1,28 @@
-"""Where alerts go: the log/terminal, a sound on the audio output, a command hook (alert JSON on stdin).
+"""Where alerts go: the log/terminal, a sound on the audio output, a command hook (alert JSON on stdin), and
+optionally phones or mail through apprise (``apprise_urls``: ntfy, Telegram, e-mail, ...; the ``notify`` extra).
+
+The hook's JSON (one object, one line) is the alert (``t_s`` capture time, ``kind``, ``state``, ``value``,
+``threshold``, ``message``) plus ``session_id``, ``person`` (or null) and ``time_local``: the wall-clock time of
+delivery in ISO 8601 with the local UTC offset (e.g. ``2026-11-23T07:41:05.120+01:00``).
 
 Sinks never block the processing loop for long and never raise: a failing sink logs a warning and the
 session goes on. Child processes are started without waiting, each in its own process group, and
 killed with everything they started once ``hook_timeout_s`` has passed (a timer per child), reaped on later
 calls and on :meth:`AlertSinks.close`.
+Apprise notifications (network) are sent by one worker thread from a bounded queue; whatever is still queued
+at close gets ``hook_timeout_s``. Configuring ``apprise_urls`` sends alert texts to the services named there:
+off the device, by the operator's choice (the dashboard and everything else stay local).
 """
 
 from __future__ import annotations
 
+import datetime as _dt
 import io
+import json
 import logging
 import math
 import os
+import queue
 import shutil
 import signal
 import struct
@@ -51,6 +62,9 @@ class SinkSettings:
     hook_on_clear: bool = False
     #: A hook or player still running after this long is killed, s.
     hook_timeout_s: float = 10.0
+    #: Apprise notification URLs (e.g. "ntfys://ntfy.sh/my-topic", "tgram://BOT/CHAT", "mailtos://..."); they get
+    #: the same events as the hook (raised; cleared too with hook_on_clear). Needs the notify extra (apprise).
+    apprise_urls: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.hook_timeout_s <= 0:
@@ -95,9 +109,14 @@ def _kill_group(proc: subprocess.Popen[bytes]) -> None:
 class AlertSinks:
     """Deliver :class:`AlertEvent` objects to the configured sinks. ``deliver(events)``, ``close()``."""
 
-    def __init__(self, settings: SinkSettings = DEFAULT_SINK_SETTINGS, stream: TextIO | None = None) -> None:
+    def __init__(self, settings: SinkSettings = DEFAULT_SINK_SETTINGS, stream: TextIO | None = None, *,
+                 session_id: int | None = None, person: str = "") -> None:
         self.settings = settings
         self._stream = stream
+        self.session_id, self.person = session_id, person
+        self._apprise: _AppriseWorker | None = None
+        if settings.apprise_urls:
+            self._apprise = _AppriseWorker.create(settings.apprise_urls, settings.hook_timeout_s)
         self._children: list[tuple[subprocess.Popen[bytes], float, str]] = []
         self._timers: list[threading.Timer] = []
         self._tmpdir: tempfile.TemporaryDirectory[str] | None = None
@@ -135,8 +154,19 @@ class AlertSinks:
                         _log.warning("cannot write alert to terminal: %s", exc)
             if ev.state == "raised" and self._sound_argv:
                 self._spawn(self._sound_argv, None, "sound")
-            if self.settings.hook_command and (ev.state == "raised" or self.settings.hook_on_clear):
-                self._spawn(list(self.settings.hook_command), (ev.to_json() + "\n").encode(), "hook")
+            wanted = ev.state == "raised" or self.settings.hook_on_clear
+            if wanted and (self.settings.hook_command or self._apprise is not None):
+                payload = self.payload(ev)
+                if self.settings.hook_command:
+                    self._spawn(list(self.settings.hook_command),
+                                (json.dumps(payload, sort_keys=True) + "\n").encode(), "hook")
+                if self._apprise is not None:
+                    self._apprise.submit(payload)
+
+    def payload(self, ev: AlertEvent) -> dict[str, object]:
+        """The alert as the hook and apprise get it: the event plus session id, person and local time."""
+        return {**ev.to_dict(), "session_id": self.session_id, "person": self.person or None,
+                "time_local": _dt.datetime.now().astimezone().isoformat(timespec="milliseconds")}
 
     def _spawn(self, argv: list[str], stdin_bytes: bytes | None, what: str) -> None:
         try:
@@ -202,6 +232,74 @@ class AlertSinks:
         self._timers = []
         self._reap()
         self._children = []
+        if self._apprise is not None:
+            self._apprise.close()
+            self._apprise = None
         if self._tmpdir is not None:
             self._tmpdir.cleanup()
             self._tmpdir = None
+
+
+class _AppriseWorker:
+    """Sends notifications through apprise from one daemon thread (network calls never touch the loop)."""
+
+    MAX_QUEUED = 100
+
+    def __init__(self, apobj: object, timeout_s: float) -> None:
+        self._apobj, self._timeout_s = apobj, timeout_s
+        self._queue: queue.Queue[dict[str, object] | None] = queue.Queue(self.MAX_QUEUED)
+        self.sent = self.failed = self.dropped = 0
+        self._thread = threading.Thread(target=self._run, name="walkmon-apprise", daemon=True)
+        self._thread.start()
+
+    @classmethod
+    def create(cls, urls: tuple[str, ...], timeout_s: float) -> _AppriseWorker | None:
+        try:
+            import apprise  # noqa: PLC0415
+        except ImportError:
+            _log.warning("sinks.apprise_urls is set but apprise is not installed (pip install 'walkmon[notify]'); "
+                         "phone/mail notifications are off")
+            return None
+        apobj = apprise.Apprise()
+        for url in urls:
+            if not apobj.add(url):
+                _log.warning("sinks.apprise_urls: apprise does not accept %r; skipped", url.split("://", 1)[0] + "://...")
+        if len(apobj) == 0:
+            _log.warning("sinks.apprise_urls: no usable URL; phone/mail notifications are off")
+            return None
+        return cls(apobj, timeout_s)
+
+    def submit(self, payload: dict[str, object]) -> None:
+        try:
+            self._queue.put_nowait(payload)
+        except queue.Full:
+            self.dropped += 1
+            _log.warning("apprise notifications are backed up: one dropped (%d so far)", self.dropped)
+
+    def _run(self) -> None:
+        while True:
+            payload = self._queue.get()
+            if payload is None:
+                return
+            who = f" ({payload['person']})" if payload.get("person") else ""
+            title = f"walkmon{who}: {str(payload['kind']).replace('_', ' ')} {payload['state']}"
+            body = f"{payload['message']} (session {payload['session_id']}, {payload['time_local']})"
+            try:
+                ok = self._apobj.notify(title=title, body=body)  # type: ignore[attr-defined]
+            except Exception as exc:  # noqa: BLE001 - a notification service failing must not end the session
+                ok = False
+                _log.warning("apprise notification failed: %s", exc)
+            if ok:
+                self.sent += 1
+            else:
+                self.failed += 1
+                _log.warning("apprise notification not delivered: %s", title)
+
+    def close(self) -> None:
+        try:
+            self._queue.put(None, timeout=self._timeout_s)
+        except queue.Full:
+            pass
+        self._thread.join(self._timeout_s)
+        if self._thread.is_alive():
+            _log.warning("apprise notifications still being sent after %.0f s; left behind", self._timeout_s)

@@ -13,7 +13,7 @@ import json
 import logging
 import platform
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -287,12 +287,14 @@ def simulate(
     stand_s: float = STANDING_S,
     render_settings: RenderSettings = DEFAULT_RENDER_SETTINGS,
     imu_settings: ImuSettings = DEFAULT_IMU_SETTINGS,
+    on_frame: Callable[[int, int], None] | None = None,
 ) -> SimulationResult:
     """Simulate a walk and write video.mp4 (unless ``video=False``), truth.csv, imu.csv, camera.yaml, meta.json.
 
     ``walk`` is a walk type (``normal``, ``left_shoulder_down``, ``right_foot_drag``, ``bend``) lasting
     ``seconds`` in total, or a script like ``"normal:10,bend:10"`` (walking seconds per segment; ``seconds`` is
-    then ignored). Every session starts and ends with ``stand_s`` (2 s) of standing still.
+    then ignored). Every session starts and ends with ``stand_s`` (2 s) of standing still. ``on_frame(done,
+    total)`` is called after each rendered frame (progress bars).
     """
     session = SimulatedSession(
         walk, seconds, seed, width, height, fps, distortion,
@@ -317,7 +319,7 @@ def simulate(
     render_time = 0.0
     if video:
         t0 = time.perf_counter()
-        _write_video(session, video_path)
+        _write_video(session, video_path, on_frame)
         render_time = time.perf_counter() - t0
         _log.info("rendered %d frames in %.1f s", session.n_frames, render_time)
 
@@ -348,15 +350,18 @@ def simulate(
     )
 
 
-def _write_video(session: SimulatedSession, path: Path) -> None:
+def _write_video(session: SimulatedSession, path: Path,
+                 on_frame: Callable[[int, int], None] | None = None) -> None:
     cam = session.camera
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), session.fps, (cam.width_px, cam.height_px))
     if not writer.isOpened():
         msg = f"cannot write {path}: OpenCV has no working mp4v encoder here"
         raise OSError(msg)
     try:
-        for _, frame, _ in session.frames():
+        for i, (_, frame, _) in enumerate(session.frames()):
             writer.write(frame)
+            if on_frame is not None:
+                on_frame(i + 1, session.n_frames)
     finally:
         writer.release()
 
