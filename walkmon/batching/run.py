@@ -21,6 +21,7 @@ import os
 import shutil
 import sys
 import time
+import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TextIO
@@ -35,12 +36,12 @@ from walkmon.batching.tables import (
 )
 from walkmon.batching.worker import STATE_DIR, analyze_task
 from walkmon.errors import ConfigError, InvalidInputError
+from walkmon.imu.recordings import IMU_FILTERS
 
 __all__ = ["BatchProgress", "batch"]
 
 METHODS = ("fast", "paper")
 GAIT_MODES = ("walkmon", "paper")
-IMU_FILTERS = ("eskf", "vqf")
 IMU_EXTRINSICS = ("identity", "estimate")
 
 
@@ -181,9 +182,14 @@ def _client(workers: int | None, scheduler: str | None, client: Any, dashboard_a
     import dask  # noqa: PLC0415
 
     with dask.config.set({"distributed.scheduler.allowed-failures": 3 if allowed_failures is None
-                          else int(allowed_failures)}):
+                          else int(allowed_failures)}), warnings.catch_warnings():
+        # "Port 8787 is already in use ... Hosting the HTTP server on port N instead": the link printed says so
+        warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
+        # the scheduler serves HTTP (health, metrics) whatever: without a dashboard on a free port, so that
+        # it does not compete for 8787
         cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                                           dashboard_address=dashboard_address, host="127.0.0.1")
+                                           dashboard_address=dashboard_address or "127.0.0.1:0",
+                                           host="127.0.0.1")
     return distributed.Client(cluster), cluster, True
 
 

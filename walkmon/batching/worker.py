@@ -107,6 +107,14 @@ def _versions() -> dict[str, str]:
             "numpy_version": np.__version__, "opencv_version": cv2.__version__}
 
 
+def _one_core() -> None:
+    """A worker is one core (one single-threaded worker process per core): OpenCV's own thread pool would
+    only compete with the other workers."""
+    import cv2  # noqa: PLC0415
+
+    cv2.setNumThreads(1)
+
+
 def _jsonable(row: Mapping[str, Any]) -> dict[str, Any]:
     return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()}
 
@@ -181,6 +189,7 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
     imu_filter, imu_extrinsics) and ``previous`` (this name's manifest entry for ``--resume``, or None).
     """
     t0 = time.perf_counter()
+    _one_core()
     name = str(task["name"])
     out = Path(task["out"])
     state = out / STATE_DIR

@@ -52,7 +52,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--method", choices=("fast", "paper"), default="fast", help="rotation method (default fast)")
     p.add_argument("--mode", choices=("walkmon", "paper"), default="walkmon", help="gait indicator mode (as analyze)")
     p.add_argument("--baseline", metavar="INDICATORS_JSON", help="the wearer's normal walk, for every recording")
-    p.add_argument("--imu-filter", choices=("eskf", "vqf"), default="eskf", help="IMU-only attitude filter")
+    from walkmon.imu.recordings import IMU_FILTERS  # noqa: PLC0415
+
+    p.add_argument("--imu-filter", choices=IMU_FILTERS, default="eskf", help="IMU-only attitude filter (as analyze)")
     p.add_argument("--imu-extrinsics", choices=("identity", "estimate"), default="identity",
                    help="IMU-to-camera rotation for fused recordings (as analyze)")
     p.add_argument("--dashboard", default="127.0.0.1:8787", metavar="ADDRESS",
@@ -61,7 +63,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import os  # noqa: PLC0415
+
     from walkmon.batching.run import batch  # noqa: PLC0415
+
+    if not getattr(args, "verbose", 0):
+        # Dask logs every worker start and stop at INFO, in this process and (through the environment) in the
+        # worker processes; the batch prints its own lines. -v shows them.
+        os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
 
     dashboard = None if str(args.dashboard).lower() == "none" else args.dashboard
     summary = batch(

@@ -1,0 +1,211 @@
+"""Batch benchmark: throughput of ``walkmon.batch`` with 2 local Dask workers against 1, and the scheduler's cost.
+
+    nice -n 10 python benchmarks/bench_batch.py                 # 8 simulated walks, 1 and 2 workers
+    nice -n 10 python benchmarks/bench_batch.py --repeat 2      # each configuration twice (alternating)
+
+Inputs: ``--n`` (8) simulated chest-camera walks (4 walk types x seeds, ``--seconds`` 10 s, ``--size`` 320x240,
+30 fps, camera-only), rendered once and cached under ``--cache`` in a folder keyed by the walkmon version, a
+hash of the simulator's source and the parameters.
+
+Measured, in this order (``--repeat`` times, the cluster sizes alternating so that a change in the machine's
+load hits both):
+
+* ``serial``: the same analyses in this process, one after the other (:func:`walkmon.batching.worker.run_analysis`,
+  OpenCV single-threaded as on a worker): the work itself without Dask;
+* ``1 worker`` / ``2 workers``: ``walkmon.batch`` on a LocalCluster of that many single-threaded worker
+  processes, started and warmed (modules imported) before the clock starts; the start-up is reported apart.
+
+Figures: wall time, recordings per minute, speed-up of 2 workers over 1 (target >= 1.8 on 8 recordings, 2
+cores), and the scheduler overhead per recording = (1-worker wall - serial wall) / n: submission, scheduling,
+result transfer, input hashing, the move of the outputs and the manifest, as a 1-worker batch pays them on top
+of a plain loop. The load average of the machine (1 min) is printed beside each figure: the figures are only
+meaningful when the load is below the number of cores. Results: benchmarks/results/batch.md and batch.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import hashlib
+import io
+import json
+import os
+import platform
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+RESULTS = Path(__file__).resolve().parent / "results"
+WALKS = ("normal", "bend", "left_shoulder_down", "right_foot_drag")
+TARGET_SPEEDUP = 1.8
+
+
+def _simulator_key() -> str:
+    import walkmon  # noqa: PLC0415
+
+    src = Path(walkmon.__file__).resolve().parent / "simulate"
+    h = hashlib.sha256()
+    for p in sorted(src.glob("*.py")):
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return f"walkmon{walkmon.__version__}-sim{h.hexdigest()[:10]}"
+
+
+def inputs(n: int, seconds: float, size: tuple[int, int], cache: Path) -> Path:
+    """``n`` walks as ``cache/<key>/walkNN.mp4`` (+ camera.yaml), simulated once."""
+    from walkmon.simulate import simulate  # noqa: PLC0415
+
+    w, h = size
+    folder = cache / f"{_simulator_key()}_{seconds:g}s_{w}x{h}_30fps"
+    folder.mkdir(parents=True, exist_ok=True)
+    for i in range(n):
+        target = folder / f"walk{i:02d}.mp4"
+        if target.is_file():
+            continue
+        walk, seed = WALKS[i % len(WALKS)], 100 + i
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            r = simulate(Path(tmp) / "s", walk=walk, seconds=seconds, seed=seed, width=w, height=h, fps=30.0)
+            shutil.copy(Path(tmp) / "s" / "camera.yaml", folder / "camera.yaml")
+            shutil.copy(r.video_path, target.with_suffix(".tmp"))
+            os.replace(target.with_suffix(".tmp"), target)
+            sys.stderr.write(f"  simulated {target.name} ({walk}, seed {seed}) in {time.perf_counter() - t0:.0f} s\n")
+    return folder
+
+
+def _load() -> float:
+    return round(os.getloadavg()[0], 2)
+
+
+def _warm() -> str:
+    """Import what an analysis imports (run on each worker before timing)."""
+    import cv2  # noqa: F401, PLC0415
+    import matplotlib  # noqa: PLC0415
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401, PLC0415
+
+    import walkmon.batching.worker  # noqa: F401, PLC0415
+    import walkmon.commands.analyze  # noqa: F401, PLC0415
+    import walkmon.gait.report  # noqa: F401, PLC0415
+
+    return "ok"
+
+
+def serial(folder: Path, videos: list[Path], work: Path) -> dict:
+    import cv2  # noqa: PLC0415
+
+    from walkmon.batching.worker import run_analysis  # noqa: PLC0415
+
+    cv2.setNumThreads(1)
+    opts = {"method": "fast", "mode": "walkmon", "baseline": None, "imu_filter": "eskf", "imu_extrinsics": "identity"}
+    _warm()
+    load0 = _load()
+    t0 = time.perf_counter()
+    for v in videos:
+        with contextlib.redirect_stdout(io.StringIO()):
+            run_analysis(str(v), None, str(folder / "camera.yaml"), opts, work / "serial" / v.stem)
+    wall = time.perf_counter() - t0
+    return {"config": "serial", "workers": 0, "wall_s": wall, "load_before": load0, "load_after": _load()}
+
+
+def batched(folder: Path, n_workers: int, work: Path, run: int) -> dict:
+    import dask  # noqa: PLC0415
+    import distributed  # noqa: PLC0415
+
+    import walkmon  # noqa: PLC0415
+
+    load0 = _load()
+    t0 = time.perf_counter()
+    with dask.config.set({"logging.distributed": "error"}):
+        cluster = distributed.LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                           dashboard_address="127.0.0.1:0", host="127.0.0.1")
+    client = distributed.Client(cluster)
+    client.run(_warm)
+    startup = time.perf_counter() - t0
+    try:
+        t1 = time.perf_counter()
+        summary = walkmon.batch([folder], work / f"w{n_workers}-{run}", client=client)
+        wall = time.perf_counter() - t1
+    finally:
+        client.close()
+        cluster.close()
+    ok = int((summary["status"] == "ok").sum())
+    return {"config": f"{n_workers} worker{'s' if n_workers > 1 else ''}", "workers": n_workers, "wall_s": wall,
+            "startup_s": startup, "ok": ok, "task_s_sum": float(summary["analysis_s"].sum()),
+            "load_before": load0, "load_after": _load()}
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--n", type=int, default=8, help="recordings (default 8)")
+    p.add_argument("--seconds", type=float, default=10.0, help="length of each walk (default 10 s)")
+    p.add_argument("--size", default="320x240", help="video size (default 320x240)")
+    p.add_argument("--repeat", type=int, default=1, help="measure each configuration this many times (default 1)")
+    p.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "walkmon-bench-batch",
+                   help="where the simulated inputs are kept")
+    p.add_argument("--out", type=Path, default=RESULTS / "batch", help="results path without extension")
+    args = p.parse_args()
+    w, h = (int(x) for x in args.size.lower().split("x"))
+    folder = inputs(args.n, args.seconds, (w, h), args.cache)
+    videos = sorted(folder.glob("walk*.mp4"))[: args.n]
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="walkmon-bench-batch-") as tmp:
+        work = Path(tmp)
+        for r in range(args.repeat):
+            rows.append(serial(folder, videos, work))
+            order = (1, 2) if r % 2 == 0 else (2, 1)
+            for n_workers in order:
+                rows.append(batched(folder, n_workers, work, r))
+                sys.stderr.write(f"  {rows[-1]['config']}: {rows[-1]['wall_s']:.1f} s (load {rows[-1]['load_before']})\n")
+
+    def best(config: str) -> dict:
+        return min((x for x in rows if x["config"] == config), key=lambda x: x["wall_s"])
+
+    s, one, two = best("serial"), best("1 worker"), best("2 workers")
+    n = len(videos)
+    speedup = one["wall_s"] / two["wall_s"]
+    overhead = (one["wall_s"] - s["wall_s"]) / n
+    lines = [
+        f"# walkmon batch: {n} recordings, 1 vs 2 local Dask workers",
+        "",
+        f"Inputs: {n} simulated walks ({', '.join(WALKS)}; seeds 100-{99 + n}), {args.seconds:g} s at {w}x{h}, 30 fps, "
+        "camera-only, fast method. Each configuration measured "
+        f"{args.repeat} time(s), the best wall time kept; cluster start-up (processes + imports) not included.",
+        "",
+        "| configuration | wall (s) | recordings/min | cluster start-up (s) | sum of task times (s) | load avg before -> after |",
+        "|---|---|---|---|---|---|",
+    ]
+    for x in rows:
+        lines.append(
+            f"| {x['config']} | {x['wall_s']:.2f} | {60 * n / x['wall_s']:.1f} | "
+            f"{x.get('startup_s', float('nan')):.1f} | {x.get('task_s_sum', float('nan')):.1f} | "
+            f"{x['load_before']} -> {x['load_after']} |"
+        )
+    verdict = "met" if speedup >= TARGET_SPEEDUP else "NOT met"
+    lines += [
+        "",
+        f"- speed-up, 2 workers over 1: **{speedup:.2f}x** (target >= {TARGET_SPEEDUP}x: {verdict}); the machine has "
+        f"{os.cpu_count()} cores.",
+        f"- scheduler overhead per recording (1-worker batch - serial loop) / {n}: **{overhead:.2f} s** "
+        f"({100 * overhead * n / s['wall_s']:.1f} % of the serial time).",
+        f"- every batch row ok: {all(x.get('ok', n) == n for x in rows)}.",
+        f"- {platform.python_version()}, {platform.machine()}, {os.cpu_count()} cores; load average (1 min) "
+        "is shown per run: above the core count, other processes shared the cores and the ratio is not "
+        "the program's.",
+    ]
+    text = "\n".join(lines) + "\n"
+    sys.stdout.write(text)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.with_suffix(".md").write_text(text, encoding="utf-8")
+    doc = {"n": n, "seconds": args.seconds, "size": [w, h], "repeat": args.repeat, "runs": rows,
+           "speedup_2_over_1": speedup, "overhead_per_recording_s": overhead, "target_speedup": TARGET_SPEEDUP,
+           "cpu_count": os.cpu_count(), "python": platform.python_version()}
+    args.out.with_suffix(".json").write_text(json.dumps(doc, indent=1), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
