@@ -133,14 +133,19 @@ def _options(method: str, mode: str, baseline: str | os.PathLike[str] | None, im
             "imu_extrinsics": imu_extrinsics}
 
 
-def _prepare_out(out: Path) -> Path:
-    """Create OUT (private to the user: 0700) or check the existing one; returns it resolved."""
+def _check_out(out: Path) -> None:
+    """Refuse an OUT that cannot be a batch's output folder (before any cluster starts; nothing written)."""
     if out.is_symlink() and not out.is_dir():
         msg = f"{out}: is a broken symbolic link"
         raise InvalidInputError(msg)
     if out.exists() and not out.is_dir():
         msg = f"{out}: exists and is not a folder"
         raise InvalidInputError(msg)
+
+
+def _prepare_out(out: Path) -> Path:
+    """Create OUT (private to the user: 0700) or check the existing one; returns it resolved."""
+    _check_out(out)
     out.mkdir(mode=0o700, parents=True, exist_ok=True)
     out = out.resolve()
     for name in ("summary.parquet", "summary.csv", "bouts.parquet", "manifest.json"):
@@ -257,25 +262,40 @@ def batch(
     out_path = Path(out).expanduser()
     recs = find_recordings(inputs, imu_patterns=imu_patterns, calib=calib,
                            exclude=out_path if out_path.exists() else None)
-    out_path = _prepare_out(out_path)
-    manifest = dict(read_manifest(out_path))
-    tasks = _tasks(recs, out_path, options, resume, manifest)
-    if not resume:  # a fresh batch: entries of an earlier run must not vouch for outputs being replaced
-        manifest = {k: v for k, v in manifest.items() if k not in {t["name"] for t in tasks}}
+    _check_out(out_path)
 
     import pandas  # noqa: F401, PLC0415 - fail before starting a cluster when pandas/pyarrow are missing
     import pyarrow  # noqa: F401, PLC0415
 
     cl, cluster, owned = _client(workers, scheduler, client, dashboard_address, allowed_failures)
+    try:
+        out_path = _prepare_out(out_path)
+        return _run(cl, recs, out_path, options, resume, log=log, progress=progress,
+                    dashboard=_dashboard(cl) if (cluster is None or dashboard_address) else None,
+                    allowed_failures=allowed_failures, on_start=on_start)
+    finally:
+        if owned:
+            cl.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _run(cl: Any, recs: Sequence[Recording], out_path: Path, options: Mapping[str, Any], resume: bool, *,
+         log: TextIO | None, progress: bool | None, dashboard: str | None, allowed_failures: int | None,
+         on_start: Callable[[Any, list[dict[str, Any]]], None] | None):  # noqa: ANN202
+    """Submit one task per recording, gather as they complete, keep the manifest; the tables at the end."""
+    from distributed import as_completed  # noqa: PLC0415
+
+    manifest = dict(read_manifest(out_path))
+    tasks = _tasks(recs, out_path, options, resume, manifest)
+    if not resume:  # a fresh batch: entries of an earlier run must not vouch for outputs being replaced
+        manifest = {k: v for k, v in manifest.items() if k not in {t["name"] for t in tasks}}
     bar = BatchProgress(len(tasks), log=log, enabled=progress)
     rows: dict[str, dict[str, Any]] = {}
     bouts: list[dict[str, Any]] = []
     try:
-        from distributed import as_completed  # noqa: PLC0415
-
-        link = _dashboard(cl) if (cluster is None or dashboard_address) else None
-        if link and log is not None:
-            log.write(f"Dask dashboard: {link}\n")
+        if dashboard and log is not None:
+            log.write(f"Dask dashboard: {dashboard}\n")
         futures = {}
         for t in tasks:
             f = cl.submit(analyze_task, t, key=f"walkmon-batch-{t['name']}-{os.urandom(4).hex()}", pure=False)
@@ -315,16 +335,12 @@ def batch(
             if time.monotonic() - last_write > 2.0:
                 write_manifest(out_path, manifest)
                 last_write = time.monotonic()
-    finally:
+    finally:  # also after Ctrl-C: what finished so far is kept and listed
         bar.close()
         write_manifest(out_path, manifest)
         summary = summary_frame(rows.values())
         write_tables(out_path, summary, bouts_frame(bouts))
         shutil.rmtree(out_path / STATE_DIR / "tmp", ignore_errors=True)
-        if owned:
-            cl.close()
-        if cluster is not None:
-            cluster.close()
     return summary
 
 

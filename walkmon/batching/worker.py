@@ -209,7 +209,7 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
         if options.get("baseline"):
             inputs["baseline"] = file_digest(Path(options["baseline"]))
         final = out / name
-        previous = task.get("previous")
+        previous = task.get("previous") or {}
         if task.get("resume") and _complete(previous, inputs, options, final):
             kept = dict(previous["row"])
             kept.update({"resumed": True, "attempts": row["attempts"], "worker": row["worker"]})
