@@ -25,9 +25,7 @@ meaningful when the load is below the number of cores. Results: benchmarks/resul
 from __future__ import annotations
 
 import argparse
-import contextlib
 import hashlib
-import io
 import json
 import os
 import platform
@@ -105,8 +103,7 @@ def serial(folder: Path, videos: list[Path], work: Path) -> dict:
     load0 = _load()
     t0 = time.perf_counter()
     for v in videos:
-        with contextlib.redirect_stdout(io.StringIO()):
-            run_analysis(str(v), None, str(folder / "camera.yaml"), opts, work / "serial" / v.stem)
+        run_analysis(str(v), None, str(folder / "camera.yaml"), opts, work / "serial" / v.stem)
     wall = time.perf_counter() - t0
     return {"config": "serial", "workers": 0, "wall_s": wall, "load_before": load0, "load_after": _load()}
 

@@ -10,7 +10,6 @@ import shutil
 import signal
 import time
 from pathlib import Path
-
 from types import SimpleNamespace
 
 import pytest

@@ -1,7 +1,7 @@
 """What a Dask worker does with one recording: :func:`analyze_task` (a plain function of plain data).
 
 Per recording: note the attempt, hash the inputs, skip when ``--resume`` finds complete outputs for the same
-inputs and options, else run the analysis of ``walkmon analyze`` (one call: :func:`run_analysis`) into a
+inputs and options, else run the analysis of ``walkmon analyze`` (one call, :func:`walkmon.api.analyze`) into a
 private temporary folder beside the outputs and move it to ``OUT/<name>/`` only when it is complete, so a
 killed worker never leaves a half-written folder that looks finished. Every error becomes a ``failed`` row
 with a one-line reason; nothing is raised (a worker that dies is the scheduler's business: it reruns the task).
@@ -11,10 +11,7 @@ The workers must see OUT and the inputs at the same paths as the client (one mac
 
 from __future__ import annotations
 
-import argparse
-import contextlib
 import hashlib
-import io
 import json
 import math
 import os
@@ -37,39 +34,18 @@ __all__ = ["STATE_DIR", "analyze_task", "file_digest", "one_line", "run_analysis
 STATE_DIR = ".walkmon-batch"
 
 
-class _ArgError(InvalidInputError):
-    pass
-
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # type: ignore[override]
-        raise _ArgError(message)
-
-
 def run_analysis(video: str | None, imu: str | None, calib: str | None, options: Mapping[str, Any],
-                 out_dir: Path) -> None:
-    """The analysis of ``walkmon analyze [VIDEO] [--imu IMU] [--calib CALIB] ... --out out_dir``, in process.
-
-    The one call into the analysis the batch makes, through the command's own argument parser so that every
-    default is the command's; its console lines are swallowed (the batch prints its own).
+                 out_dir: Path) -> dict[str, Any]:
+    """``walkmon analyze [VIDEO] [--imu IMU] [--calib CALIB] ... --out out_dir``: the one call into the analysis
+    (:func:`walkmon.api.analyze`, which the command runs too) and its files; returns the indicators.json document.
     """
-    from walkmon.commands import analyze  # noqa: PLC0415
+    from walkmon.api import analyze  # noqa: PLC0415
 
-    argv = [] if video is None else [video]
-    if imu is not None:
-        argv += ["--imu", imu, "--imu-filter", str(options["imu_filter"]),
-                 "--imu-extrinsics", str(options["imu_extrinsics"])]
-    if calib is not None:
-        argv += ["--calib", calib]
-    if options.get("baseline"):
-        argv += ["--baseline", str(options["baseline"])]
-    argv += ["--method", str(options["method"]), "--mode", str(options["mode"]), "--out", str(out_dir),
-             "--no-progress"]
-    parser = _Parser(prog="walkmon analyze", add_help=False)
-    analyze.add_arguments(parser)
-    args = parser.parse_args(argv)
-    with contextlib.redirect_stdout(io.StringIO()):
-        analyze.run(args)
+    result = analyze(video, imu=imu, calib=calib, method=str(options["method"]), baseline=options.get("baseline"),
+                     mode=str(options["mode"]), imu_filter=str(options["imu_filter"]),
+                     imu_extrinsics=str(options["imu_extrinsics"]))
+    result.write(out_dir)
+    return result.indicators
 
 
 def file_digest(path: Path) -> dict[str, Any]:
@@ -217,8 +193,7 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
             return {"row": kept, "bouts": bouts_from_indicators(name, doc), "manifest": dict(previous)}
         tmp = state / "tmp" / f"{name}-{uuid.uuid4().hex[:8]}"
         tmp.parent.mkdir(parents=True, exist_ok=True)
-        run_analysis(task.get("video"), task.get("imu"), task.get("calib"), options, tmp)
-        doc = json.loads((tmp / "indicators.json").read_text(encoding="utf-8"))
+        doc = run_analysis(task.get("video"), task.get("imu"), task.get("calib"), options, tmp)
         row.update(indicator_columns(doc))
         bouts = bouts_from_indicators(name, doc)
         outputs = _outputs(tmp)
