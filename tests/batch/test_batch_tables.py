@@ -72,6 +72,30 @@ def test_labelled_bouts_give_time_per_posture_and_bout_rows() -> None:
     assert math.isnan(df.loc[1, "axes_pitch_swing_mean"])
 
 
+def test_schema_2_session_fields() -> None:
+    """indicators.json schema 2 (bouts, summary.posture_time_s per posture segment, activity_s): the segment
+    times win over the bouts' majority labels."""
+    bouts = [{"start_s": 2.0, "end_s": 32.0, "activity": "walking", "n_steps": 50, "cadence_spm": 100.0,
+              "spectral_cadence_spm": 101.0, "n_turns": 1,
+              "axes": {"pitch": {"swing_mean": 2.0}, "yaw": None, "roll": {"swing_mean": 1.0}},
+              "label": "normal", "reasons": ["normal over 20.0 s of 30.0 s", "bend over 10.0 s of 30.0 s"]}]
+    doc = _doc(bouts=bouts, activity_s={"standing": 4.0, "walking": 30.0, "turning": 2.5, "unknown": 0.0},
+               summary={"n_steps": 50, "n_turns": 1, "posture_time_s": {"bend": 10.0, "normal": 20.0}})
+    row = indicator_columns(doc)
+    assert row["time_normal_s"] == 20.0
+    assert row["time_bend_s"] == 10.0  # not 0: the bout's majority label would hide the bent part
+    assert row["activity_turning_s"] == 2.5
+    assert row["n_steps"] == 50 and row["n_turns"] == 1 and row["n_bouts"] == 1
+    (b,) = bouts_from_indicators("rec", doc)
+    assert b["reasons"] == "normal over 20.0 s of 30.0 s; bend over 10.0 s of 30.0 s"
+    assert b["axes_roll_swing_mean"] == 1.0
+    assert "axes_yaw" not in b  # a null axis leaves its columns empty
+    assert b["spectral_cadence_spm"] == 101.0
+    # before schema 2 the session columns are empty, not zero
+    old = indicator_columns(_doc())
+    assert math.isnan(old["activity_walking_s"]) and math.isnan(old["n_steps"])
+
+
 def test_empty_tables_have_the_documented_columns(tmp_path: Path) -> None:
     summary = summary_frame([])
     bouts = bouts_frame([])

@@ -10,9 +10,12 @@
   per axis ``{pitch,yaw,roll}_{lmax_mean,lmin_mean,swing_mean,inclination_mean,swing_std,inclination_std,
   frequency_hz,n_cycles}`` (degrees, Hz) and the step asymmetry ``asym_*`` columns;
 * time per posture: ``time_{normal,left_shoulder_down,right_foot_drag,bend,unclassified}_s``, the walking time
-  under each label: the sum of the bouts' durations per bout label when indicators.json has labelled
-  ``bouts``, otherwise the recording's whole ``walking_s`` under its one label;
-* ``n_bouts`` (the rows this recording has in bouts.parquet);
+  under each label: indicators.json's ``summary.posture_time_s`` when it has one (schema 2: per posture
+  segment), else the sum of the durations of the bouts with each label, else the recording's whole
+  ``walking_s`` under its one label;
+* ``activity_{standing,walking,turning,unknown}_s`` (indicators.json ``activity_s``; NaN before schema 2);
+* ``n_bouts`` (the rows this recording has in bouts.parquet), ``n_steps`` and ``n_turns`` (indicators.json
+  ``summary``; NaN before schema 2);
 * the run: ``method`` (rotation method), ``analysis_s`` (wall time of the task), ``worker`` (Dask worker
   address), ``attempts`` (times the task was started: more than 1 when a worker died under it), ``resumed``
   (True: outputs kept from an earlier run by ``--resume``), ``finished_utc``;
@@ -22,7 +25,8 @@
 Missing numbers are NaN (empty in the CSV). ``OUT/bouts.parquet`` columns :data:`BOUT_COLUMNS`: ``name``,
 ``bout`` (0-based within the recording), ``start_s``, ``end_s``, ``duration_s``, ``n_steps``, ``cadence_spm``,
 ``label`` (the bout's own label when indicators.json gives one, else empty), then any other number or text a
-bout entry of indicators.json carries, nested keys joined with ``_``. No bouts anywhere: an empty table with
+bout entry of indicators.json carries, nested keys joined with ``_`` (``axes_pitch_swing_mean``; a list of
+texts such as ``reasons`` joined with "; "). No bouts anywhere: an empty table with
 those columns.
 """
 
@@ -58,6 +62,8 @@ AXIS_FIELDS = ("lmax_mean", "lmin_mean", "swing_mean", "inclination_mean", "swin
 ASYMMETRY_FIELDS = ("n_steps", "step_swing_ratio", "swing_asymmetry_pct", "step_time_ratio",
                     "step_time_asymmetry_pct")
 POSTURE_COLUMNS = tuple(f"time_{label}_s" for label in LABELS)
+#: indicators.json ``activity_s`` keys (schema 2), as ``activity_<key>_s`` columns.
+ACTIVITIES = ("standing", "walking", "turning", "unknown")
 
 SUMMARY_COLUMNS: tuple[str, ...] = (
     "name", "status", "error", "kind", "video", "imu", "calib",
@@ -65,14 +71,15 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     *(f"{a}_{f}" for a in AXES for f in AXIS_FIELDS),
     *(f"asym_{f}" for f in ASYMMETRY_FIELDS),
     *POSTURE_COLUMNS,
-    "n_bouts",
+    *(f"activity_{k}_s" for k in ACTIVITIES),
+    "n_bouts", "n_steps", "n_turns",
     "method", "analysis_s", "worker", "attempts", "resumed", "finished_utc",
     "walkmon_version", "indicators_schema", "python_version", "numpy_version", "opencv_version",
 )
 _TEXT = {"name", "status", "error", "kind", "video", "imu", "calib", "indicator_status", "label", "reasons",
          "gait_mode", "method", "worker", "finished_utc", "walkmon_version", "python_version", "numpy_version",
          "opencv_version"}
-_INT = {"attempts", "n_bouts"}
+_INT = {"attempts", "n_bouts"}  # n_steps, n_turns: float, NaN where indicators.json does not say
 _BOOL = {"resumed"}
 
 BOUT_COLUMNS: tuple[str, ...] = ("name", "bout", "start_s", "end_s", "duration_s", "n_steps", "cadence_spm", "label")
@@ -114,20 +121,38 @@ def indicator_columns(doc: Mapping[str, Any]) -> dict[str, Any]:
         row[f"asym_{f}"] = _num(asym.get(f)) if isinstance(asym, Mapping) else math.nan
     bouts = bouts_from_indicators("", doc)
     row["n_bouts"] = len(bouts)
+    summary = doc.get("summary") if isinstance(doc.get("summary"), Mapping) else {}
+    row["n_steps"] = _num(summary.get("n_steps"))
+    row["n_turns"] = _num(summary.get("n_turns"))
+    activity = doc.get("activity_s") if isinstance(doc.get("activity_s"), Mapping) else {}
+    for k in ACTIVITIES:
+        row[f"activity_{k}_s"] = _num(activity.get(k))
+    row.update(_posture_times(doc, summary, bouts, label, row["walking_s"]))
+    return row
+
+
+def _posture_times(doc: Mapping[str, Any], summary: Mapping[str, Any], bouts: list[dict[str, Any]], label: str,
+                   walking_s: float) -> dict[str, float]:
+    """Walking time per label: indicators.json's ``summary.posture_time_s`` (schema 2: per posture segment),
+    else the labelled bouts' durations, else the whole walking time under the recording's one label."""
     times = dict.fromkeys(POSTURE_COLUMNS, 0.0)
+    given = summary.get("posture_time_s")
     labelled = [b for b in bouts if b.get("label")]
-    if labelled:
+    if isinstance(given, Mapping):
+        for lab, sec in given.items():
+            key = f"time_{lab}_s"
+            if key in times and math.isfinite(_num(sec)):
+                times[key] += _num(sec)
+    elif labelled:
         for b in labelled:
             key = f"time_{b['label']}_s"
             if key in times and math.isfinite(b["duration_s"]):
                 times[key] += b["duration_s"]
     else:
-        walking = row["walking_s"]
         key = f"time_{label}_s"
-        if key in times and math.isfinite(walking):
-            times[key] = walking
-    row.update(times)
-    return row
+        if key in times and math.isfinite(walking_s):
+            times[key] = walking_s
+    return times
 
 
 def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
@@ -136,11 +161,13 @@ def _flatten(prefix: str, value: Any, out: dict[str, Any]) -> None:
             _flatten(f"{prefix}_{k}" if prefix else str(k), v, out)
     elif isinstance(value, bool):
         out[prefix] = value
-    elif isinstance(value, int | float) or value is None:
+    elif isinstance(value, int | float):
         out[prefix] = _num(value)
     elif isinstance(value, str):
         out[prefix] = value
-    # lists (e.g. step times) do not fit a row: left to indicators.json
+    elif isinstance(value, list) and value and all(isinstance(v, str) for v in value):
+        out[prefix] = "; ".join(value)  # e.g. a bout's reasons
+    # null (a column other bouts may fill: NaN there) and lists of numbers (step times) stay in indicators.json
 
 
 def bouts_from_indicators(name: str, doc: Mapping[str, Any]) -> list[dict[str, Any]]:
