@@ -106,9 +106,17 @@ def test_summary_values_come_from_each_recordings_indicators(first_run, recordin
         for axis in ("pitch", "yaw", "roll"):
             want = doc["axes"][axis]["swing_mean"]
             assert (pd.isna(row[f"{axis}_swing_mean"]) and want is None) or row[f"{axis}_swing_mean"] == pytest.approx(want)
-        # time per posture: all the walking time under the recording's one label (no labelled bouts yet)
+        # time per posture: indicators.json's own per-label times (schema 2), else all the walking time under
+        # the recording's one label
         posture = row[[c for c in SUMMARY_COLUMNS if c.startswith("time_")]]
-        assert posture.sum() == pytest.approx(row["walking_s"])
+        per_label = (doc.get("summary") or {}).get("posture_time_s")
+        if per_label is None:
+            assert posture.sum() == pytest.approx(row["walking_s"])
+            assert posture[f"time_{row['label']}_s"] == pytest.approx(row["walking_s"])
+        else:
+            for lab, sec in per_label.items():
+                assert posture[f"time_{lab}_s"] == pytest.approx(sec)
+        assert row["n_bouts"] == len(doc.get("bouts") or [])
         assert row["walkmon_version"] == walkmon.__version__
     by_name = summary.set_index("name")
     truth = {f"s{i}_imu": walk for i, (walk, _) in enumerate(IMU_WALKS)}

@@ -16,7 +16,8 @@
 * ``activity_{standing,walking,turning,unknown}_s`` (indicators.json ``activity_s``; NaN before schema 2);
 * ``n_bouts`` (the rows this recording has in bouts.parquet), ``n_steps`` and ``n_turns`` (indicators.json
   ``summary``; NaN before schema 2);
-* the run: ``method`` (rotation method), ``analysis_s`` (wall time of the task), ``worker`` (Dask worker
+* the run: ``method`` (rotation method), ``analysis_s`` (wall time of the task), ``cpu_s`` (CPU time of the
+  worker process over the task: what a recording costs, for sizing a cluster), ``worker`` (Dask worker
   address), ``attempts`` (times the task was started: more than 1 when a worker died under it), ``resumed``
   (True: outputs kept from an earlier run by ``--resume``), ``finished_utc``;
 * versions: ``walkmon_version``, ``indicators_schema``, ``python_version``, ``numpy_version``,
@@ -73,7 +74,7 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     *POSTURE_COLUMNS,
     *(f"activity_{k}_s" for k in ACTIVITIES),
     "n_bouts", "n_steps", "n_turns",
-    "method", "analysis_s", "worker", "attempts", "resumed", "finished_utc",
+    "method", "analysis_s", "cpu_s", "worker", "attempts", "resumed", "finished_utc",
     "walkmon_version", "indicators_schema", "python_version", "numpy_version", "opencv_version",
 )
 _TEXT = {"name", "status", "error", "kind", "video", "imu", "calib", "indicator_status", "label", "reasons",

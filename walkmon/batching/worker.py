@@ -165,6 +165,7 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
     imu_filter, imu_extrinsics) and ``previous`` (this name's manifest entry for ``--resume``, or None).
     """
     t0 = time.perf_counter()
+    c0 = time.process_time()
     _one_core()
     name = str(task["name"])
     out = Path(task["out"])
@@ -208,6 +209,7 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
     row["analysis_s"] = round(time.perf_counter() - t0, 3)
+    row["cpu_s"] = round(time.process_time() - c0, 3)
     row["finished_utc"] = datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
     row = _jsonable(row)
     manifest["row"] = row
