@@ -101,7 +101,8 @@ def serial(folder: Path, videos: list[Path], work: Path) -> dict:
     from walkmon.batching.worker import run_analysis  # noqa: PLC0415
 
     cv2.setNumThreads(1)
-    opts = {"method": "fast", "mode": "walkmon", "baseline": None, "imu_filter": "eskf", "imu_extrinsics": "identity"}
+    opts = {"method": "fast", "mode": "walkmon", "baseline": None, "imu_filter": "vqf", "imu_extrinsics": "identity",
+            "imu_calib": None}
     _warm()
     load0 = _load()
     t0 = time.perf_counter()

@@ -36,7 +36,7 @@ from walkmon.batching.tables import (
 )
 from walkmon.batching.worker import STATE_DIR, analyze_task
 from walkmon.errors import ConfigError, InvalidInputError
-from walkmon.imu.recordings import IMU_FILTERS
+from walkmon.imu.attitude import IMU_FILTERS
 
 __all__ = ["BatchProgress", "batch"]
 
@@ -114,23 +114,36 @@ def _describe(row: Mapping[str, Any]) -> str:
     return f"{row['name']}: ok: {row.get('label', '')}, {cad_text}, {walk_text}{retried}{extra}"
 
 
-def _options(method: str, mode: str, baseline: str | os.PathLike[str] | None, imu_filter: str,
-             imu_extrinsics: str) -> dict[str, Any]:
-    for value, allowed, what in ((method, METHODS, "method"), (mode, GAIT_MODES, "mode"),
-                                 (imu_filter, IMU_FILTERS, "imu_filter"),
-                                 (imu_extrinsics, IMU_EXTRINSICS, "imu_extrinsics")):
-        if value not in allowed:
-            msg = f"{what} must be one of {', '.join(allowed)}, got {value!r}"
+def _analyze_default(name: str) -> Any:
+    """The default of ``walkmon.analyze``'s parameter ``name`` (so a batch analyses as ``walkmon analyze`` does)."""
+    import inspect  # noqa: PLC0415
+
+    from walkmon.api import analyze  # noqa: PLC0415
+
+    return inspect.signature(analyze).parameters[name].default
+
+
+def _existing(path: str | os.PathLike[str] | None, what: str) -> str | None:
+    if path is None:
+        return None
+    p = Path(path).expanduser().resolve()
+    if not p.is_file():
+        msg = f"{path}: no such {what} file"
+        raise InvalidInputError(msg)
+    return str(p)
+
+
+def _options(method: str | None, mode: str | None, baseline: str | os.PathLike[str] | None, imu_filter: str | None,
+             imu_extrinsics: str | None, imu_calib: str | os.PathLike[str] | None) -> dict[str, Any]:
+    """The analysis options of every recording (None: ``walkmon analyze``'s default), checked."""
+    chosen = {"method": method, "mode": mode, "imu_filter": imu_filter, "imu_extrinsics": imu_extrinsics}
+    values = {k: (_analyze_default(k) if v is None else v) for k, v in chosen.items()}
+    for key, allowed in (("method", METHODS), ("mode", GAIT_MODES), ("imu_filter", IMU_FILTERS),
+                         ("imu_extrinsics", IMU_EXTRINSICS)):
+        if values[key] not in allowed:
+            msg = f"{key} must be one of {', '.join(allowed)}, got {values[key]!r}"
             raise ConfigError(msg)
-    base = None
-    if baseline is not None:
-        b = Path(baseline).expanduser().resolve()
-        if not b.is_file():
-            msg = f"{baseline}: no such baseline file"
-            raise InvalidInputError(msg)
-        base = str(b)
-    return {"method": method, "mode": mode, "baseline": base, "imu_filter": imu_filter,
-            "imu_extrinsics": imu_extrinsics}
+    return {**values, "baseline": _existing(baseline, "baseline"), "imu_calib": _existing(imu_calib, "IMU calibration")}
 
 
 def _check_out(out: Path) -> None:
@@ -230,11 +243,12 @@ def batch(
     imu_patterns: Sequence[str] | None = None,
     calib: str | os.PathLike[str] | None = None,
     resume: bool = False,
-    method: str = "fast",
-    mode: str = "walkmon",
+    method: str | None = None,
+    mode: str | None = None,
     baseline: str | os.PathLike[str] | None = None,
-    imu_filter: str = "eskf",
-    imu_extrinsics: str = "identity",
+    imu_filter: str | None = None,
+    imu_extrinsics: str | None = None,
+    imu_calib: str | os.PathLike[str] | None = None,
     dashboard_address: str | None = "127.0.0.1:8787",
     allowed_failures: int | None = None,
     progress: bool | None = False,
@@ -247,7 +261,8 @@ def batch(
     ``inputs``: files, folders or globs (pairing rule: :mod:`walkmon.batching.pairing`). Cluster: ``workers``
     local worker processes (default: one per core), or ``scheduler`` ``"tcp://HOST:PORT"``, or an existing
     ``client``. ``resume``: keep recordings whose outputs are complete for the same inputs (by SHA-256) and
-    options. ``method``, ``mode``, ``baseline``, ``imu_filter``, ``imu_extrinsics``: as ``walkmon analyze``.
+    options. ``method``, ``mode``, ``baseline``, ``imu_filter``, ``imu_extrinsics``, ``imu_calib``: as
+    ``walkmon.analyze`` (None: its default).
     ``progress``: draw the bar on stderr (None: when stderr is a terminal); ``log``: a stream for one line per
     recording. ``on_start(client, tasks)`` is called once the tasks are submitted (e.g. to watch them).
     Writes ``out/summary.parquet``, ``out/summary.csv``, ``out/bouts.parquet`` and ``out/manifest.json``.
@@ -258,7 +273,7 @@ def batch(
     if not inputs:
         msg = "no INPUTS given"
         raise InvalidInputError(msg)
-    options = _options(method, mode, baseline, imu_filter, imu_extrinsics)
+    options = _options(method, mode, baseline, imu_filter, imu_extrinsics, imu_calib)
     out_path = Path(out).expanduser()
     recs = find_recordings(inputs, imu_patterns=imu_patterns, calib=calib,
                            exclude=out_path if out_path.exists() else None)

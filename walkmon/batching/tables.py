@@ -122,10 +122,12 @@ def indicator_columns(doc: Mapping[str, Any]) -> dict[str, Any]:
         row[f"asym_{f}"] = _num(asym.get(f)) if isinstance(asym, Mapping) else math.nan
     bouts = bouts_from_indicators("", doc)
     row["n_bouts"] = len(bouts)
-    summary = doc.get("summary") if isinstance(doc.get("summary"), Mapping) else {}
+    given_summary = doc.get("summary")
+    summary: Mapping[str, Any] = given_summary if isinstance(given_summary, Mapping) else {}
     row["n_steps"] = _num(summary.get("n_steps"))
     row["n_turns"] = _num(summary.get("n_turns"))
-    activity = doc.get("activity_s") if isinstance(doc.get("activity_s"), Mapping) else {}
+    given_activity = doc.get("activity_s")
+    activity: Mapping[str, Any] = given_activity if isinstance(given_activity, Mapping) else {}
     for k in ACTIVITIES:
         row[f"activity_{k}_s"] = _num(activity.get(k))
     row.update(_posture_times(doc, summary, bouts, label, row["walking_s"]))

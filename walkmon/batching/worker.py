@@ -43,7 +43,7 @@ def run_analysis(video: str | None, imu: str | None, calib: str | None, options:
 
     result = analyze(video, imu=imu, calib=calib, method=str(options["method"]), baseline=options.get("baseline"),
                      mode=str(options["mode"]), imu_filter=str(options["imu_filter"]),
-                     imu_extrinsics=str(options["imu_extrinsics"]))
+                     imu_extrinsics=str(options["imu_extrinsics"]), imu_calib=options.get("imu_calib"))
     result.write(out_dir)
     return result.indicators
 
@@ -162,7 +162,7 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
 
     ``task``: ``name``, ``video``, ``imu``, ``calib`` (path strings or None), ``problem`` (a reason to fail
     without analysing, or ""), ``out`` (the batch's OUT folder), ``options`` (method, mode, baseline,
-    imu_filter, imu_extrinsics) and ``previous`` (this name's manifest entry for ``--resume``, or None).
+    imu_filter, imu_extrinsics, imu_calib) and ``previous`` (this name's manifest entry for ``--resume``, or None).
     """
     t0 = time.perf_counter()
     c0 = time.process_time()
@@ -183,8 +183,9 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
         if task.get("problem"):
             raise InvalidInputError(str(task["problem"]))
         inputs = {k: file_digest(Path(task[k])) for k in ("video", "imu", "calib") if task.get(k)}
-        if options.get("baseline"):
-            inputs["baseline"] = file_digest(Path(options["baseline"]))
+        for key in ("baseline", "imu_calib"):  # files that change the result: hashed like the inputs
+            if options.get(key):
+                inputs[key] = file_digest(Path(options[key]))
         final = out / name
         previous = task.get("previous") or {}
         if task.get("resume") and _complete(previous, inputs, options, final):

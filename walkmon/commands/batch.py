@@ -49,14 +49,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--calib", metavar="CAMERA_YAML", help="calibration for every video (default: per video, see below)")
     p.add_argument("--resume", action="store_true",
                    help="keep recordings whose outputs in OUT are complete for the same inputs (SHA-256) and options")
-    p.add_argument("--method", choices=("fast", "paper"), default="fast", help="rotation method (default fast)")
-    p.add_argument("--mode", choices=("walkmon", "paper"), default="walkmon", help="gait indicator mode (as analyze)")
+    p.add_argument("--method", choices=("fast", "paper"), help="rotation method (as analyze; default fast)")
+    p.add_argument("--mode", choices=("walkmon", "paper"), help="gait indicator mode (as analyze; default walkmon)")
     p.add_argument("--baseline", metavar="INDICATORS_JSON", help="the wearer's normal walk, for every recording")
-    from walkmon.imu.recordings import IMU_FILTERS  # noqa: PLC0415
+    from walkmon.imu.attitude import IMU_FILTERS  # noqa: PLC0415
 
-    p.add_argument("--imu-filter", choices=IMU_FILTERS, default="eskf", help="IMU-only attitude filter (as analyze)")
-    p.add_argument("--imu-extrinsics", choices=("identity", "estimate"), default="identity",
-                   help="IMU-to-camera rotation for fused recordings (as analyze)")
+    p.add_argument("--imu-filter", choices=IMU_FILTERS, help="IMU attitude filter (as analyze, and its default)")
+    p.add_argument("--imu-extrinsics", choices=("identity", "estimate"),
+                   help="IMU-to-camera rotation for fused recordings (as analyze; default identity)")
+    p.add_argument("--imu-calib", metavar="JSON", help="accelerometer calibration for every IMU file (as analyze)")
     p.add_argument("--dashboard", default="127.0.0.1:8787", metavar="ADDRESS",
                    help="local cluster's Dask dashboard address (needs bokeh; 'none' for none; default %(default)s)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
@@ -76,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     summary = batch(
         args.inputs, args.out, workers=args.workers, scheduler=args.scheduler, imu_patterns=args.imu_pattern,
         calib=args.calib, resume=args.resume, method=args.method, mode=args.mode, baseline=args.baseline,
-        imu_filter=args.imu_filter, imu_extrinsics=args.imu_extrinsics, dashboard_address=dashboard,
+        imu_filter=args.imu_filter, imu_extrinsics=args.imu_extrinsics, imu_calib=args.imu_calib,
+        dashboard_address=dashboard,
         progress=False if args.no_progress else None, log=sys.stdout,
     )
     n_ok = int((summary["status"] == "ok").sum())
