@@ -25,6 +25,7 @@ from walkmon.errors import (
 
 if TYPE_CHECKING:
     from walkmon.api import Analysis, Session, analyze, analyze_angles, load_session, open_video
+    from walkmon.batching.run import batch
     from walkmon.camera.model import CameraModel, default_camera, read_camera_yaml, write_camera_yaml
     from walkmon.consts import (
         AXES,
@@ -46,6 +47,7 @@ if TYPE_CHECKING:
 _LAZY = {
     **dict.fromkeys(("Analysis", "Session", "analyze", "analyze_angles", "load_session", "open_video"),
                     "walkmon.api"),
+    "batch": "walkmon.batching.run",
     **dict.fromkeys(("CameraModel", "default_camera", "read_camera_yaml", "write_camera_yaml"),
                     "walkmon.camera.model"),
     **dict.fromkeys(("AXES", "GRAVITY_MS2", "angles_deg_from_rotation", "gravity_angles_deg_from_gravity",
@@ -81,6 +83,7 @@ __all__ = [
     "Session",
     "analyze",
     "analyze_angles",
+    "batch",
     "load_session",
     "open_video",
     "GRAVITY_MS2",

@@ -28,6 +28,7 @@ COMMAND_MODULES = (
     "walkmon.commands.calibrate_imu",
     "walkmon.commands.simulate",
     "walkmon.commands.analyze",
+    "walkmon.commands.batch",
     "walkmon.commands.indicators",
     "walkmon.commands.live",
     "walkmon.commands.config",
