@@ -22,8 +22,8 @@ Processing (:func:`segment`):
    ``WbAssembly`` defaults): steps closer than ``max_break_s`` = 3 s belong to one bout (a shorter pause
    joins the bouts around it); a bout needs ``min_steps`` = 4 steps (two strides). A bout runs from its first
    to its last step.
-4. **Cadence per bout** from the steps: 60 / mean step duration, pauses inside the bout (step intervals
-   above ``pause_factor`` x the median) left out; the spectral peak of the bout is kept as a cross-check.
+4. **Cadence per bout** from the steps: 60 / mean step duration, strides spanning a pause (above
+   ``pause_factor`` x the median stride) or hurried (below the median / ``hurried_factor``) left out; the spectral peak of the bout is kept as a cross-check.
 5. **Turns** (El-Gohary et al. 2013, Sensors 14(1) 356-369; also mobgap's ``TdElGohary``): the heading rate
    low-passed at 1.5 Hz; a turn is a run above ``turn_edge_deg_s`` (5 deg/s) that peaks above
    ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
@@ -83,7 +83,8 @@ class ActivitySettings:
     min_step_fraction: float = 0.6
     max_break_s: float = 3.0
     min_steps: int = 4
-    pause_factor: float = 1.6
+    pause_factor: float = 1.3
+    hurried_factor: float = 1.6
     turn_edge_deg_s: float = 5.0
     turn_peak_deg_s: float = 15.0
     turn_min_deg: float = 45.0
@@ -411,14 +412,16 @@ def _trim_edges(g: NDArray[np.float64]) -> NDArray[np.float64]:
 def cadence_from_steps(steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> float:
     """Cadence of a bout as Mobilise-D reports it: the mean over strides (two consecutive steps) of
     120 / stride duration, strides spanning a pause (longer than ``pause_factor`` x the median stride) left
-    out. Falls back to 60 / step duration with fewer than 3 steps."""
+    out, as are strides shorter than the median / ``hurried_factor`` (a hurried first or last stride of gait
+    initiation/termination). Falls back to 60 / step duration with fewer than 3 steps."""
     st = np.asarray(steps_s, dtype=float)
     if st.size < 2:
         return float("nan")
     if st.size < 3:
         return float(60.0 / (st[1] - st[0]))
     stride = st[2:] - st[:-2]
-    stride = stride[stride <= settings.pause_factor * np.median(stride)]
+    med = np.median(stride)
+    stride = stride[(stride <= settings.pause_factor * med) & (stride >= med / settings.hurried_factor)]
     return float(np.mean(120.0 / stride)) if stride.size else float("nan")
 
 
