@@ -428,7 +428,7 @@ def cadence_from_steps(steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_
 def _spectral_cadence(sig: TrunkSignals | None, t0: float, t1: float, s: ActivitySettings) -> float:
     if sig is None:
         return float("nan")
-    from walkmon.spectrum import refined_peak  # noqa: PLC0415
+    from walkmon.gait.spectrum import refined_peak  # noqa: PLC0415
 
     m = (sig.t_s >= t0) & (sig.t_s <= t1)
     if m.sum() < 2 * s.rate_hz:

@@ -37,7 +37,7 @@ initiation and a lower-back or loosely worn sensor all give large swings in heal
 healthy walks were labelled right_foot_drag by the sway rule alone). Without a baseline, right_foot_drag also
 needs left/right alternation of the detected steps (step time ratio >= 1.08 or step swing ratio >= 1.3, as the
 paper's dragged foot and the simulator show); a large symmetric sway is ``unclassified`` with that reason. With
-fewer than ``min_steps`` gait cycles nothing is labelled (``unclassified``: too little walking).
+fewer than ``min_steps`` (8) steps nothing is labelled (``unclassified``: too little walking).
 
 This is the one classifier of walkmon: the offline analysis (per bout and posture segment) and the live
 monitor's windows (:mod:`walkmon.live_indicators`) both call :func:`classify`.
@@ -89,7 +89,7 @@ class PostureThresholds:
     # evidence needed before any label without a baseline (issue 11: no false alarms on healthy walks)
     drag_step_time_ratio: float = 1.08
     drag_step_swing_ratio: float = 1.3
-    min_steps: int = 6
+    min_steps: int = 8
     # relative (with a baseline)
     drag_swing_ratio: float = 2.0
     left_roll_drop_deg: float = 0.3
@@ -136,10 +136,12 @@ def classify(
     values = [_axis(indicators, a, k) for a in ("pitch", "roll") for k in ("swing_mean", "inclination_mean")]
     if not all(math.isfinite(v) for v in values):
         return Classification("unclassified", ("pitch or roll indicators missing (no full gait cycle)",))
-    n_cycles = _axis(indicators, "pitch", "n_cycles")
-    if math.isfinite(n_cycles) and n_cycles < thresholds.min_steps:
+    n_steps = (indicators.get("asymmetry") or {}).get("n_steps")  # detected steps (IMU) or pitch cycles
+    if n_steps is None:
+        n_steps = _axis(indicators, "pitch", "n_cycles")
+    if math.isfinite(n_steps) and n_steps < thresholds.min_steps:
         return Classification("unclassified", (
-            f"only {n_cycles:.0f} gait cycles (< {thresholds.min_steps}): too little walking to label",))
+            f"only {n_steps:.0f} steps (< {thresholds.min_steps}): too little walking to label",))
     if baseline is not None:
         label, reasons = _relative(indicators, baseline, thresholds)
     else:

@@ -41,7 +41,7 @@ from walkmon.gait.activity import (
     signals_from_angles,
     signals_from_imu,
 )
-from walkmon.indicators import (
+from walkmon.gait.indicators import (
     DEFAULT_INDICATOR_SETTINGS,
     AxisIndicators,
     Classification,
@@ -70,6 +70,7 @@ class SessionSettings:
     change_pitch_deg: float = 4.0
     change_roll_deg: float = 3.0
     smooth_s: float = 2.0
+    still_tilt_deg: float = 20.0
 
 
 DEFAULT_SESSION_SETTINGS = SessionSettings()
@@ -99,10 +100,29 @@ def _num(v: float, nd: int = 4) -> float | None:
     return round(v, nd) if math.isfinite(v) else None
 
 
+def heading_free_angles(angles_deg: NDArray[np.float64], upright_deg: ArrayLike) -> NDArray[np.float64]:
+    """(pitch, yaw, roll) with pitch and roll replaced by the trunk's tilt relative to the upright pose.
+
+    Start-relative Euler angles mix pitch and roll once the wearer has turned (after a 180 deg turn a forward
+    lean reads backward in them). The tilt is taken from the direction the upright pose's vertical has at each
+    frame (``M(t)^T M(upright) e_y``, ``M`` the start-relative orientation): it does not depend on heading.
+    ``upright_deg``: the start-relative angles of the upright pose.
+    """
+    from walkmon.consts import gravity_angles_deg_from_gravity, rotation_from_angles_deg  # noqa: PLC0415
+
+    a = np.asarray(angles_deg, dtype=float)
+    u = np.asarray(upright_deg, dtype=float).reshape(3)
+    m = rotation_from_angles_deg(a[:, 0], a[:, 1], a[:, 2])
+    ms = rotation_from_angles_deg(u[0], u[1], u[2])
+    g = np.einsum("nji,j->ni", m, ms @ np.array([0.0, 1.0, 0.0]))
+    tilt = gravity_angles_deg_from_gravity(g)
+    return np.column_stack([tilt[:, 0], a[:, 1], tilt[:, 1]])
+
+
 def _upright(
     t: NDArray, a: NDArray, seg: Segmentation, abs_deg: NDArray | None, s: SessionSettings
-) -> tuple[NDArray[np.float64], str]:
-    """Upright (pitch, yaw, roll) reference in the angles' frame, and how it was found."""
+) -> tuple[NDArray[np.float64], str, tuple[float, float] | None]:
+    """Upright (pitch, yaw, roll) reference in the angles' frame, how it was found, and the standing phase."""
     act = np.asarray(seg.activity)
     hop = float(seg.timeline_t_s[1] - seg.timeline_t_s[0]) if len(seg.timeline_t_s) > 1 else 0.1
     runs = _runs(act == "standing")
@@ -115,13 +135,13 @@ def _upright(
                 ref = np.median(a[m], axis=0)
                 where = f"first standing phase {t0:.1f}-{t1:.1f} s"
                 if has_abs:
-                    return ref, where + " (IMU gravity)"
-                return ref, where
+                    return ref, where + " (IMU gravity)", (t0, t1)
+                return ref, where, (t0, t1)
     if has_abs:
         ok = np.isfinite(abs_deg).all(axis=1)  # type: ignore[union-attr]
         off = np.median(a[ok][:, [0, 2]] - abs_deg[ok], axis=0)  # type: ignore[index]
-        return np.array([off[0], 0.0, off[1]]), "gravity (IMU; no standing phase: the sensor is assumed level)"
-    return np.zeros(3), "first frame (no standing phase and no IMU: assumed upright)"
+        return np.array([off[0], 0.0, off[1]]), "gravity (IMU; no standing phase: the sensor is assumed level)", None
+    return np.zeros(3), "first frame (no standing phase and no IMU: assumed upright)", None
 
 
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -195,7 +215,7 @@ def _segment_indicators(
     t: NDArray, a: NDArray, t0: float, t1: float, ref: NDArray, sig_steps: NDArray, kind: str,
     settings: IndicatorSettings, baseline: Mapping[str, Any] | None,
 ) -> tuple[Indicators, dict[str, Any]]:
-    from walkmon.posture import classify  # noqa: PLC0415
+    from walkmon.gait.posture import classify  # noqa: PLC0415
 
     m = (t >= t0) & (t <= t1)
     st = sig_steps[(sig_steps >= t0) & (sig_steps <= t1)]
@@ -206,9 +226,8 @@ def _segment_indicators(
     asym = dict(ind.asymmetry)
     if kind != "angles":  # detected steps of the IMU: their alternation is the better evidence
         r = _steps_asymmetry(st)
-        if math.isfinite(r):
-            asym["step_time_ratio"] = r
-            asym["step_time_asymmetry_pct"] = 100.0 * 2 * (r - 1) / (r + 1)
+        asym["step_time_ratio"] = r
+        asym["step_time_asymmetry_pct"] = 100.0 * 2 * (r - 1) / (r + 1) if math.isfinite(r) else float("nan")
         asym["n_steps"] = float(st.size)
     ind = replace(ind, cadence_spm=float(cadence), asymmetry=asym)
     ind = ind.with_classification(classify(ind.to_dict(), baseline))
@@ -254,6 +273,7 @@ def analyze_session(
     activity_settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS,
     session_settings: SessionSettings = DEFAULT_SESSION_SETTINGS,
     no_yaw: bool = False,
+    reference_deg: ArrayLike | None = None,
 ) -> SessionAnalysis:
     """Timeline, bouts, posture segments and the summary of one recording (see the module text)."""
     t = np.asarray(t_s, dtype=float)
@@ -267,7 +287,28 @@ def analyze_session(
         sig = signals_from_angles(t, a, activity_settings)
     seg = segment(sig, activity_settings)
     s = session_settings
-    ref, ref_source = _upright(t, a, seg, absd, s)
+    has_abs = absd is not None and np.isfinite(absd).all(axis=1).mean() > 0.5
+    if reference_deg is not None:
+        ref, ref_source = np.asarray(reference_deg, dtype=float).reshape(3), "given (the live monitor's calibration)"
+        stand = None
+    else:
+        ref, ref_source, stand = _upright(t, a, seg, absd, s)
+    # heading-free inclinations: gravity's pitch/roll with an IMU, else the tilt from the upright pose
+    if has_abs:
+        ok = np.isfinite(absd).all(axis=1)  # type: ignore[union-attr]
+        gp = np.interp(t, t[ok], absd[ok, 0])  # type: ignore[index]
+        gr = np.interp(t, t[ok], absd[ok, 1])  # type: ignore[index]
+        # the upright pose in gravity angles: the standing phase's, or level
+        up_abs = np.zeros(2)
+        if stand is not None:
+            m = (t >= stand[0]) & (t <= stand[1])
+            up_abs = np.array([np.median(gp[m]), np.median(gr[m])])
+        a = np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]])
+        ref_out = up_abs
+    else:
+        a = heading_free_angles(a, ref)
+        ref_out = ref[[0, 2]]
+    ref_zero = np.zeros(3)
     seg_docs: list[dict[str, Any]] = []
     bout_docs: list[dict[str, Any]] = []
     weighted: list[tuple[float, Indicators]] = []
@@ -276,10 +317,10 @@ def analyze_session(
         inside = []
         for p0, p1 in _pieces(b, seg.turns, s):
             m = (t >= p0) & (t <= p1)
-            cuts = _change_points(t[m], a[m] - ref, s)
+            cuts = _change_points(t[m], a[m], s)
             edges = [p0, *cuts, p1]
             for q0, q1 in zip(edges[:-1], edges[1:], strict=True):
-                ind, doc = _segment_indicators(t, a, q0, q1, ref, seg.steps_s, sig.kind, settings, base)
+                ind, doc = _segment_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base)
                 if no_yaw:
                     doc["axes"]["yaw"] = None
                 seg_docs.append(doc)
@@ -323,13 +364,16 @@ def analyze_session(
         why = "no walking bout" if not seg.bouts else "no straight walking segment long enough to measure"
         cls = Classification("unclassified", (why,))
     asym = _weighted_asym(weighted)
-    activity_s = {k: float(np.sum(np.asarray(seg.activity) == k)) * activity_settings.hop_s
+    activity = _not_upright_is_unknown(np.asarray(seg.activity, dtype=object), seg.timeline_t_s, t, a, s)
+    seg = replace(seg, activity=tuple(str(v) for v in activity))
+    activity_s = {k: float(np.sum(activity == k)) * activity_settings.hop_s
                   for k in ("standing", "walking", "turning", "unknown")}
-    rows = timeline_rows(t, a, seg, seg_docs, ref, absd)
+    rows = timeline_rows(t, a, seg, seg_docs, ref_zero)
     status = IndicatorStatus.OK if weighted and any(i.status is IndicatorStatus.OK for _, i in weighted) else (
         IndicatorStatus.NO_GAIT if seg.bouts or t.size > 16 else IndicatorStatus.TOO_SHORT)
     session = {
-        "upright_reference": {"source": ref_source, "pitch_deg": _num(ref[0]), "roll_deg": _num(ref[2])},
+        "upright_reference": {"source": ref_source, "pitch_deg": _num(ref_out[0]), "roll_deg": _num(ref_out[1]),
+                              "frame": "gravity pitch/roll" if has_abs else "start-relative angles"},
         "input": {"activity_from": {"imu": "IMU (gyroscope + accelerometer)", "acc": "accelerometer only",
                                     "angles": "camera angles"}[sig.kind],
                   "notes": list(seg.notes) + (["no yaw: yaw indicators are null"] if no_yaw else [])},
@@ -351,10 +395,23 @@ def analyze_session(
     ind = Indicators(
         cadence_spm=float(cadence), duration_s=duration, walking_s=walking_s, axes=axes, asymmetry=asym,
         classification=cls, status=status, mode=settings.mode, walking_interval_s=(first, last),
-        reference_deg={ax: float(ref[k]) for k, ax in enumerate(AXES)}, drift_removed_deg={},
+        reference_deg={"pitch": float(ref_out[0]), "yaw": 0.0, "roll": float(ref_out[1])}, drift_removed_deg={},
         session=session,
     )
     return SessionAnalysis(ind, seg, ref, ref_source, tuple(seg_docs), rows)
+
+
+def _not_upright_is_unknown(
+    activity: NDArray, grid: NDArray, t: NDArray, a: NDArray, s: SessionSettings
+) -> NDArray:
+    """Still but tilted more than ``still_tilt_deg`` from upright: sitting, lying or bending down, not standing."""
+    if t.size == 0:
+        return activity
+    p = np.interp(grid, t, a[:, 0])
+    r = np.interp(grid, t, a[:, 2])
+    out = activity.copy()
+    out[(out == "standing") & ((np.abs(p) > s.still_tilt_deg) | (np.abs(r) > s.still_tilt_deg))] = "unknown"
+    return out
 
 
 def _weighted_asym(items: list[tuple[float, Indicators]]) -> dict[str, float]:
