@@ -266,7 +266,12 @@ def signals_from_angles(
     yaw = _butter(a_u[:, 1], settings.rate_hz, 3.0, "low")
     heading = np.gradient(yaw, 1.0 / settings.rate_hz)
     rate = np.degrees(np.linalg.norm(np.gradient(np.radians(a_u), 1.0 / settings.rate_hz, axis=0), axis=1))
-    return TrunkSignals(grid, a_u[:, 0], heading, "angles", rate, None)
+    # a posture change mid-walk (bending down by 15-20 deg within a second) would swamp the 1-2 deg step rhythm
+    # of pitch: take the rhythm about the pitch's 1 s running median (one step or more at >= 60 steps/min)
+    from scipy.ndimage import median_filter  # noqa: PLC0415
+
+    step = a_u[:, 0] - median_filter(a_u[:, 0], size=max(3, int(settings.rate_hz)), mode="nearest")
+    return TrunkSignals(grid, step, heading, "angles", rate, None)
 
 
 # --------------------------------------------------------------------------------------------- gait windows

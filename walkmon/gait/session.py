@@ -57,6 +57,9 @@ __all__ = [
     "SessionAnalysis",
     "SessionSettings",
     "analyze_session",
+    "change_points",
+    "heading_free_angles",
+    "span_indicators",
     "timeline_rows",
 ]
 
@@ -100,13 +103,17 @@ def _num(v: float, nd: int = 4) -> float | None:
     return round(v, nd) if math.isfinite(v) else None
 
 
-def heading_free_angles(angles_deg: NDArray[np.float64], upright_deg: ArrayLike) -> NDArray[np.float64]:
-    """(pitch, yaw, roll) with pitch and roll replaced by the trunk's tilt relative to the upright pose.
+def heading_free_angles(
+    t_s: ArrayLike, angles_deg: NDArray[np.float64], upright_deg: ArrayLike
+) -> NDArray[np.float64]:
+    """(pitch, yaw, roll) whose slow part (posture) is the trunk's tilt relative to the upright pose.
 
     Start-relative Euler angles mix pitch and roll once the wearer has turned (after a 180 deg turn a forward
     lean reads backward in them). The tilt is taken from the direction the upright pose's vertical has at each
     frame (``M(t)^T M(upright) e_y``, ``M`` the start-relative orientation): it does not depend on heading.
-    ``upright_deg``: the start-relative angles of the upright pose.
+    Only the slow difference (2.5 s mean) between tilt and Euler angles is applied, so the gait oscillation (the
+    paper's swings, defined on the camera's Euler angles) is kept as measured. ``upright_deg``: the start-relative
+    angles of the upright pose.
     """
     from walkmon.consts import gravity_angles_deg_from_gravity, rotation_from_angles_deg  # noqa: PLC0415
 
@@ -116,7 +123,21 @@ def heading_free_angles(angles_deg: NDArray[np.float64], upright_deg: ArrayLike)
     ms = rotation_from_angles_deg(u[0], u[1], u[2])
     g = np.einsum("nji,j->ni", m, ms @ np.array([0.0, 1.0, 0.0]))
     tilt = gravity_angles_deg_from_gravity(g)
-    return np.column_stack([tilt[:, 0], a[:, 1], tilt[:, 1]])
+    return slow_offset(t_s, a, np.column_stack([tilt[:, 0], a[:, 1], tilt[:, 1]]))
+
+
+def slow_offset(t_s: ArrayLike, raw: NDArray[np.float64], target: NDArray[np.float64], span_s: float = 2.5) -> NDArray:
+    """``raw`` plus the slow (``span_s`` centred mean) part of ``target - raw``."""
+    t = np.asarray(t_s, dtype=float)
+    d = np.asarray(target, dtype=float) - raw
+    if t.size < 3:
+        return raw + d
+    fs = (t.size - 1) / max(float(t[-1] - t[0]), 1e-9)
+    w = max(1, int(round(span_s * fs)))
+    kern = np.ones(w) / w
+    sm = np.column_stack([np.convolve(np.pad(d[:, k], (w // 2, w - 1 - w // 2), mode="edge"), kern, "valid")
+                          for k in range(d.shape[1])])
+    return raw + sm
 
 
 def _upright(
@@ -168,7 +189,7 @@ def _pieces(bout: Any, turns: tuple, s: SessionSettings) -> list[tuple[float, fl
     return [(p0, p1) for p0, p1 in pieces if p1 - p0 >= s.min_piece_s]
 
 
-def _change_points(t: NDArray, a: NDArray, s: SessionSettings) -> list[float]:
+def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> list[float]:
     """Split times of a piece (binary segmentation of the slow pitch/roll)."""
     if t.size < 4:
         return []
@@ -211,10 +232,14 @@ def _steps_asymmetry(steps: NDArray[np.float64]) -> float:
     return max(a, b) / min(a, b)
 
 
-def _segment_indicators(
+def span_indicators(
     t: NDArray, a: NDArray, t0: float, t1: float, ref: NDArray, sig_steps: NDArray, kind: str,
-    settings: IndicatorSettings, baseline: Mapping[str, Any] | None,
+    settings: IndicatorSettings = DEFAULT_INDICATOR_SETTINGS, baseline: Mapping[str, Any] | None = None,
 ) -> tuple[Indicators, dict[str, Any]]:
+    """Indicators and classification of the walking span [t0, t1] of heading-free angles ``a`` (upright =
+    ``ref``): the paper's swing/inclination, cadence from the steps in the span, asymmetry, and the one
+    classifier (:func:`walkmon.gait.posture.classify`). Used for every offline posture segment and for every live
+    window (:mod:`walkmon.gait.live`), so both label a walk with the same function, thresholds and reasons."""
     from walkmon.gait.posture import classify  # noqa: PLC0415
 
     m = (t >= t0) & (t <= t1)
@@ -303,10 +328,10 @@ def analyze_session(
         if stand is not None:
             m = (t >= stand[0]) & (t <= stand[1])
             up_abs = np.array([np.median(gp[m]), np.median(gr[m])])
-        a = np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]])
+        a = slow_offset(t, a, np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]]))
         ref_out = up_abs
     else:
-        a = heading_free_angles(a, ref)
+        a = heading_free_angles(t, a, ref)
         ref_out = ref[[0, 2]]
     ref_zero = np.zeros(3)
     seg_docs: list[dict[str, Any]] = []
@@ -317,10 +342,10 @@ def analyze_session(
         inside = []
         for p0, p1 in _pieces(b, seg.turns, s):
             m = (t >= p0) & (t <= p1)
-            cuts = _change_points(t[m], a[m], s)
+            cuts = change_points(t[m], a[m], s)
             edges = [p0, *cuts, p1]
             for q0, q1 in zip(edges[:-1], edges[1:], strict=True):
-                ind, doc = _segment_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base)
+                ind, doc = span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base)
                 if no_yaw:
                     doc["axes"]["yaw"] = None
                 seg_docs.append(doc)
