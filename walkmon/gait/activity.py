@@ -263,7 +263,7 @@ def signals_from_angles(
     t = _check(t_s, angles_deg)
     a = np.asarray(angles_deg, dtype=float)
     grid, a_u = _resample(t, a, settings.rate_hz)
-    yaw = _butter(a_u[:, 1], settings.rate_hz, 3.0, "low")
+    yaw = _butter(np.degrees(np.unwrap(np.radians(a_u[:, 1]))), settings.rate_hz, 3.0, "low")  # +-180 wraps
     heading = np.gradient(yaw, 1.0 / settings.rate_hz)
     rate = np.degrees(np.linalg.norm(np.gradient(np.radians(a_u), 1.0 / settings.rate_hz, axis=0), axis=1))
     # a posture change mid-walk (bending down by 15-20 deg within a second) would swamp the 1-2 deg step rhythm

@@ -302,7 +302,9 @@ def analyze_session(
 ) -> SessionAnalysis:
     """Timeline, bouts, posture segments and the summary of one recording (see the module text)."""
     t = np.asarray(t_s, dtype=float)
-    a = np.asarray(angles_deg, dtype=float)
+    a = np.array(angles_deg, dtype=float)
+    if a.ndim == 2 and a.shape[1] == 3 and a.shape[0] > 1:
+        a[:, 1] = np.degrees(np.unwrap(np.radians(a[:, 1])))  # yaw wraps at +-180 after a U-turn
     absd = None if abs_angles_deg is None else np.asarray(abs_angles_deg, dtype=float)
     base = baseline.to_dict() if isinstance(baseline, Indicators) else baseline
     sig: TrunkSignals
