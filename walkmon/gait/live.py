@@ -286,6 +286,7 @@ class LiveIndicatorStage:
         self._calibrated = False
         self._calibration_pending = "start"
         self._pending_event: CalibrationEvent | None = None
+        self._last_steps = np.zeros(0)
 
     @property
     def reference_deg(self) -> NDArray[np.float64]:
@@ -446,17 +447,17 @@ class LiveIndicatorStage:
             if t_now - b.end_s <= max(1.5 * step, 1.0):
                 # the span after the last turn inside the bout
                 start = max([b.start_s, *(u.end_s for u in seg.turns if u.end_s <= b.end_s)])
+                self._last_steps = seg.steps_s
                 return "walking", (start, float(b.end_s))
         act = seg.activity_at(np.array([t_now]))[0]
         return ("standing" if act == "standing" else "unknown"), None
 
     def _classify_span(self, t: NDArray[np.float64], a: NDArray[np.float64], span: tuple[float, float]):  # noqa: ANN202
         """The offline classifier on the window's walking span (heading-free angles from the reference)."""
-        from walkmon.gait.activity import detect_steps, signals_from_angles  # noqa: PLC0415
         from walkmon.gait.session import change_points, heading_free_angles, span_indicators  # noqa: PLC0415
 
         hf = heading_free_angles(t, a, self._reference)
-        steps = detect_steps(signals_from_angles(t, a))
+        steps = self._last_steps  # the window's steps, from the segmentation that found the walking span
         m = (t >= span[0]) & (t <= span[1])
         cuts = change_points(t[m], hf[m])  # a posture change inside the span: classify what follows it
         start = cuts[-1] if cuts else span[0]
