@@ -213,6 +213,47 @@ def _indicator_table(doc: Mapping[str, Any], base: Mapping[str, Any] | None) -> 
     return "<table>" + "".join(rows) + "</table>"
 
 
+def _session_section(doc: Mapping[str, Any]) -> str:
+    """Walking bouts, posture segments and turns of a walkmon-mode analysis (schema 2); '' in paper mode."""
+    if "segments" not in doc:
+        return ""
+    summary = doc.get("summary") or {}
+    ref = doc.get("upright_reference") or {}
+    head = ("<tr><th>start [s]</th><th>end [s]</th><th>steps</th><th>cadence [spm]</th><th>spectral [spm]</th>"
+            "<th>pitch &rho; [deg]</th><th>roll &rho; [deg]</th><th>total swing [deg]</th><th>label</th></tr>")
+
+    def rows(items: list[Mapping[str, Any]]) -> str:
+        out = []
+        for d in items:
+            axes = d.get("axes") or {}
+
+            def ax(name: str, key: str, axes=axes) -> Any:  # noqa: ANN001
+                a = axes.get(name) or {}
+                return a.get(key)
+
+            swings = [ax(a, "swing_mean") for a in ("pitch", "yaw", "roll")]
+            total = sum(v for v in swings if v is not None) if any(v is not None for v in swings) else None
+            out.append(f"<tr><td>{_fmt(d.get('start_s'), 1)}</td><td>{_fmt(d.get('end_s'), 1)}</td>"
+                       f"<td>{d.get('n_steps')}</td><td>{_fmt(d.get('cadence_spm'), 1)}</td>"
+                       f"<td>{_fmt(d.get('spectral_cadence_spm'), 1)}</td><td>{_fmt(ax('pitch', 'inclination_mean'), 1)}"
+                       f"</td><td>{_fmt(ax('roll', 'inclination_mean'), 1)}</td><td>{_fmt(total, 1)}</td>"
+                       f"<td title='{html.escape('; '.join(d.get('reasons') or []))}'>{html.escape(str(d.get('label')))}"
+                       "</td></tr>")
+        return "".join(out)
+
+    turns = ", ".join(f"{_fmt(u.get('start_s'), 1)}-{_fmt(u.get('end_s'), 1)} s ({_fmt(u.get('angle_deg'), 0)} deg)"
+                      for u in doc.get("turns") or []) or "none"
+    times = ", ".join(f"{k} {_fmt(v, 1)} s" for k, v in (doc.get("activity_s") or {}).items())
+    posture = ", ".join(f"{k} {_fmt(v, 1)} s" for k, v in (summary.get("posture_time_s") or {}).items()) or "none"
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in (doc.get("input") or {}).get("notes") or [])
+    return (f"<h2>Activity, walking bouts and posture segments</h2>\n<p class='small'>Activity: {html.escape(times)}. "
+            f"Upright reference: {html.escape(str(ref.get('source', '?')))}. Labelled walking time: "
+            f"{html.escape(posture)}. Turns: {html.escape(turns)}. The summary above is the duration-weighted "
+            f"aggregate over the posture segments (turns excluded).</p>{f'<ul>{notes}</ul>' if notes else ''}\n"
+            f"<h3>Bouts</h3><table>{head}{rows(doc.get('bouts') or [])}</table>\n"
+            f"<h3>Posture segments</h3><table>{head}{rows(doc.get('segments') or [])}</table>")
+
+
 def _kv_table(items: Mapping[str, Any]) -> str:
     rows = "".join(f"<tr><td>{html.escape(str(k))}</td><td>{_fmt(v)}</td></tr>" for k, v in items.items())
     return f"<table>{rows}</table>"
@@ -275,6 +316,7 @@ reference paper (swing &phi; = a &minus; b and inclination &rho; = (a + b)/2 per
 <h2>Classification</h2>
 <p><span class="label {label}">{label}</span> &nbsp; cadence {_fmt(doc['cadence_spm'], 1)} steps/min</p>
 <ul>{reasons}</ul>
+{_session_section(doc)}
 <h2>Indicators (paper Table 3 layout)</h2>
 {_indicator_table(doc, base)}
 <h2>Left/right asymmetry (alternate steps)</h2>
