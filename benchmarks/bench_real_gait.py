@@ -39,7 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from walkmon.gait.activity import (  # noqa: E402
+from walkmon.gait.activity import (
     DEFAULT_ACTIVITY_SETTINGS,
     cadence_from_steps,
     segment,
@@ -61,7 +61,7 @@ def data_root() -> Path:
 
 # ------------------------------------------------------------------------------------------ Mobilise-D
 def mobgap_trials(base: Path) -> list[dict]:
-    import scipy.io as sio  # noqa: PLC0415
+    import scipy.io as sio
 
     out = []
     for pid in ("HA/002", "MS/001"):
@@ -126,7 +126,7 @@ def run_walkmon(trial: dict, acc_only: bool) -> dict:
 
 
 def mobgap_cache_key(base: Path) -> str:
-    import mobgap  # noqa: PLC0415
+    import mobgap
 
     h = hashlib.sha256(mobgap.__version__.encode())
     for pid in ("HA/002", "MS/001"):
@@ -141,8 +141,8 @@ def run_mobgap(base: Path) -> dict[str, dict[str, list]]:
     if path.is_file():
         return json.loads(path.read_text())
     warnings.filterwarnings("ignore")
-    from mobgap.data import GenericMobilisedDataset  # noqa: PLC0415
-    from mobgap.pipeline import MobilisedPipelineHealthy, MobilisedPipelineImpaired  # noqa: PLC0415
+    from mobgap.data import GenericMobilisedDataset
+    from mobgap.pipeline import MobilisedPipelineHealthy, MobilisedPipelineImpaired
 
     paths = [base / "mobgap" / "lab" / pid / "data.mat" for pid in ("HA/002", "MS/001")]
     ds = GenericMobilisedDataset(paths, test_level_names=("time_measure", "test", "trial"),
@@ -183,11 +183,11 @@ LOWER_BACK_TO_CAMERA = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1
 
 def full_analysis_imu(t: np.ndarray, acc: np.ndarray, gyr: np.ndarray | None) -> dict:
     """What 'walkmon analyze --imu' reports (attitude filter, session analysis, one classifier) on a recording."""
-    from walkmon.gait.session import ImuInput, analyze_session  # noqa: PLC0415
+    from walkmon.gait.session import ImuInput, analyze_session
 
     if gyr is None:  # accelerometer only: gravity pitch/roll, no yaw (as analyze_acc_only)
-        from walkmon.consts import gravity_angles_deg_from_gravity  # noqa: PLC0415
-        from walkmon.gait.activity import gravity_direction  # noqa: PLC0415
+        from walkmon.consts import gravity_angles_deg_from_gravity
+        from walkmon.gait.activity import gravity_direction
 
         rate = (len(t) - 1) / float(t[-1] - t[0])
         step = max(1, int(np.ceil(rate / 100.0 - 1e-9)))
@@ -198,7 +198,7 @@ def full_analysis_imu(t: np.ndarray, acc: np.ndarray, gyr: np.ndarray | None) ->
         ind = analyze_session(tt, angles, imu=ImuInput(t - t[0], acc, None), abs_angles_deg=absolute,
                               no_yaw=True).indicators
     else:
-        from walkmon.imu.recordings import ImuRecording, imu_only_columns  # noqa: PLC0415
+        from walkmon.imu.recordings import ImuRecording, imu_only_columns
 
         cols = imu_only_columns(ImuRecording(t.copy(), gyr.copy(), acc.copy()))
         angles = np.column_stack([cols["pitch"], cols["yaw"], cols["roll"]])
@@ -325,7 +325,7 @@ def main() -> int:
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "real_gait.md").write_text(text, encoding="utf-8")
 
-    def clean(v):  # noqa: ANN001, ANN202
+    def clean(v):
         return None if isinstance(v, float) and not np.isfinite(v) else v
 
     doc = {"mobilised": [{k: clean(v) for k, v in r.items()} for r in doc_rows],

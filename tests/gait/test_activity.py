@@ -25,7 +25,7 @@ def _matched(found: np.ndarray, truth: np.ndarray, tol: float) -> int:
     return int(sum(np.min(np.abs(found - s)) <= tol for s in truth)) if found.size else 0
 
 
-def test_walk_without_standing_start_with_pause_and_turns(synthetic_imu) -> None:  # noqa: ANN001
+def test_walk_without_standing_start_with_pause_and_turns(synthetic_imu) -> None:
     """Starts mid-walk, a 2 s pause (joins the bout), a 180 deg and a 90 deg turn, a 5 s stop (splits bouts)."""
     imu = synthetic_imu([("walk", 8), ("turn", 2.5), ("walk", 5), ("stand", 2), ("walk", 6), ("stand", 5),
                          ("walk", 4), ("turn", 2), ("walk", 6), ("stand", 3)], seed=1)
@@ -45,7 +45,7 @@ def test_walk_without_standing_start_with_pause_and_turns(synthetic_imu) -> None
     assert act.tolist() == ["walking", "turning", "walking", "standing", "turning"]
 
 
-def test_asymmetric_and_slow_gait_cadence(synthetic_imu) -> None:  # noqa: ANN001
+def test_asymmetric_and_slow_gait_cadence(synthetic_imu) -> None:
     # alternating 0.5 / 0.7 s steps (a limp): 100 steps/min; and a slow walker at 72 steps/min
     imu = synthetic_imu([("stand", 2), ("walk", 20), ("stand", 2)], step_s=(0.5, 0.7), seed=2)
     (b,) = segment(signals_from_imu(imu.t, imu.acc, imu.gyr)).bouts
@@ -56,14 +56,14 @@ def test_asymmetric_and_slow_gait_cadence(synthetic_imu) -> None:  # noqa: ANN00
     assert b.cadence_spm == pytest.approx(72.0, rel=0.01)
 
 
-def test_accelerometer_only_has_no_turns_and_says_so(synthetic_imu) -> None:  # noqa: ANN001
+def test_accelerometer_only_has_no_turns_and_says_so(synthetic_imu) -> None:
     imu = synthetic_imu([("walk", 6), ("turn", 2), ("walk", 6)], up=(0.6, -0.8, 0.0))  # tilted mounting
     seg = segment(signals_from_imu(imu.t, imu.acc, None))
     assert seg.turns == () and any("no heading" in n for n in seg.notes)
     assert len(seg.bouts) == 1 and seg.source == "acc"
 
 
-def test_standing_still_and_short_shuffles_are_not_bouts(synthetic_imu) -> None:  # noqa: ANN001
+def test_standing_still_and_short_shuffles_are_not_bouts(synthetic_imu) -> None:
     imu = synthetic_imu([("stand", 6), ("walk", 1.0), ("stand", 6)], seed=4)  # two steps: not a bout
     seg = segment(signals_from_imu(imu.t, imu.acc, imu.gyr))
     assert seg.bouts == ()

@@ -74,7 +74,7 @@ def test_a_recording_that_starts_mid_walk_needs_no_standing_start() -> None:
     assert "standing phase" in doc["upright_reference"]["source"]  # the stance at the end, found anywhere
 
 
-def test_baseline_and_paper_keys_round_trip(tmp_path) -> None:  # noqa: ANN001
+def test_baseline_and_paper_keys_round_trip(tmp_path) -> None:
     from walkmon.gait.indicators import read_indicators, write_indicators
 
     model = GaitModel("left_shoulder_down", 16.0, seed=1)

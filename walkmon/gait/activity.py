@@ -52,8 +52,8 @@ __all__ = [
     "ActivitySettings",
     "Bout",
     "Segmentation",
-    "Turn",
     "TrunkSignals",
+    "Turn",
     "bouts_from_steps",
     "detect_steps",
     "detect_turns",
@@ -183,7 +183,7 @@ class Segmentation:
 
 # --------------------------------------------------------------------------------------------- filters
 def _butter(x: NDArray[np.float64], fs: float, cutoff: float | tuple[float, float], btype: str) -> NDArray[np.float64]:
-    from scipy import signal  # noqa: PLC0415
+    from scipy import signal
 
     nyq = 0.5 * fs
     if btype == "band":
@@ -268,7 +268,7 @@ def signals_from_angles(
     rate = np.degrees(np.linalg.norm(np.gradient(np.radians(a_u), 1.0 / settings.rate_hz, axis=0), axis=1))
     # a posture change mid-walk (bending down by 15-20 deg within a second) would swamp the 1-2 deg step rhythm
     # of pitch: take the rhythm about the pitch's 1 s running median (one step or more at >= 60 steps/min)
-    from scipy.ndimage import median_filter  # noqa: PLC0415
+    from scipy.ndimage import median_filter
 
     step = a_u[:, 0] - median_filter(a_u[:, 0], size=max(3, int(settings.rate_hz)), mode="nearest")
     return TrunkSignals(grid, step, heading, "angles", rate, None)
@@ -346,7 +346,7 @@ def detect_steps(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVIT
 
 
 def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64], NDArray, NDArray]:
-    from scipy.signal import find_peaks  # noqa: PLC0415
+    from scipy.signal import find_peaks
 
     fs = s.rate_hz
     tc, rms, per, period = _windowed_gait(sig, s)
@@ -433,7 +433,7 @@ def cadence_from_steps(steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_
 def _spectral_cadence(sig: TrunkSignals | None, t0: float, t1: float, s: ActivitySettings) -> float:
     if sig is None:
         return float("nan")
-    from walkmon.gait.spectrum import refined_peak  # noqa: PLC0415
+    from walkmon.gait.spectrum import refined_peak
 
     m = (sig.t_s >= t0) & (sig.t_s <= t1)
     if m.sum() < 2 * s.rate_hz:

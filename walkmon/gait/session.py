@@ -45,8 +45,8 @@ from walkmon.gait.indicators import (
     DEFAULT_INDICATOR_SETTINGS,
     AxisIndicators,
     Classification,
-    IndicatorSettings,
     Indicators,
+    IndicatorSettings,
     IndicatorStatus,
     analyze_gait,
 )
@@ -115,7 +115,7 @@ def heading_free_angles(
     paper's swings, defined on the camera's Euler angles) is kept as measured. ``upright_deg``: the start-relative
     angles of the upright pose.
     """
-    from walkmon.consts import gravity_angles_deg_from_gravity, rotation_from_angles_deg  # noqa: PLC0415
+    from walkmon.consts import gravity_angles_deg_from_gravity, rotation_from_angles_deg
 
     a = np.asarray(angles_deg, dtype=float)
     u = np.asarray(upright_deg, dtype=float).reshape(3)
@@ -240,7 +240,7 @@ def span_indicators(
     ``ref``): the paper's swing/inclination, cadence from the steps in the span, asymmetry, and the one
     classifier (:func:`walkmon.gait.posture.classify`). Used for every offline posture segment and for every live
     window (:mod:`walkmon.gait.live`), so both label a walk with the same function, thresholds and reasons."""
-    from walkmon.gait.posture import classify  # noqa: PLC0415
+    from walkmon.gait.posture import classify
 
     m = (t >= t0) & (t <= t1)
     st = sig_steps[(sig_steps >= t0) & (sig_steps <= t1)]
@@ -276,7 +276,7 @@ def _weighted_axes(items: list[tuple[float, Indicators]]) -> dict[str, AxisIndic
             continue
         ws = np.array([w for w, _ in vals])
 
-        def avg(name: str, vals=vals, ws=ws) -> float:  # noqa: ANN001
+        def avg(name: str, vals=vals, ws=ws) -> float:
             x = np.array([getattr(v, name) for _, v in vals], float)
             ok = np.isfinite(x)
             return float(np.sum(ws[ok] * x[ok]) / np.sum(ws[ok])) if ok.any() else float("nan")
