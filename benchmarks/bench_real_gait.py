@@ -205,7 +205,8 @@ def full_analysis_imu(t: np.ndarray, acc: np.ndarray, gyr: np.ndarray | None) ->
         absolute = np.column_stack([cols["pitch_abs"], cols["roll_abs"]])
         ind = analyze_session(cols["t"], angles, imu=ImuInput(t - t[0], acc, gyr), abs_angles_deg=absolute).indicators
     d = ind.to_dict()
-    return {"label": d["classification"]["label"], "reason": (d["classification"]["reasons"] or [""])[0],
+    reasons = d["classification"]["reasons"] or [""]
+    return {"label": d["classification"]["label"], "reason": reasons[1] if len(reasons) > 1 else reasons[0],
             "posture_time_s": d["summary"]["posture_time_s"], "reference": d["upright_reference"]["source"]}
 
 
@@ -314,7 +315,7 @@ def main() -> int:
         "baseline; lower-back axes mapped to camera axes; Oxford phones in their own axes). Target: no pathology",
         f"label on a healthy walk: {len(pathology)} pathology label(s) on healthy recordings.",
         "",
-        "| recording | input | label | labelled walking time by label (s) | first reason |",
+        "| recording | input | label | labelled walking time by label (s) | reason (longest segment of that label) |",
         "|---|---|---|---|---|",
         *label_rows,
         "",

@@ -74,6 +74,7 @@ class SessionSettings:
     change_roll_deg: float = 3.0
     smooth_s: float = 2.0
     still_tilt_deg: float = 20.0
+    max_drift_deg: float = 8.0
 
 
 DEFAULT_SESSION_SETTINGS = SessionSettings()
@@ -163,6 +164,36 @@ def _upright(
         off = np.median(a[ok][:, [0, 2]] - abs_deg[ok], axis=0)  # type: ignore[index]
         return np.array([off[0], 0.0, off[1]]), "gravity (IMU; no standing phase: the sensor is assumed level)", None
     return np.zeros(3), "first frame (no standing phase and no IMU: assumed upright)", None
+
+
+def _remove_drift(
+    t: NDArray, a: NDArray, seg: Segmentation, first: tuple[float, float], s: SessionSettings
+) -> tuple[NDArray, NDArray | None]:
+    """Video angles drift: when the wearer stands again later (the last standing phase >= ``min_standing_s``,
+    within ``max_drift_deg`` of the first), the pitch/roll difference between the two stances is drift; it is
+    removed along a straight line between them (held constant after). Returns the angles and the drift."""
+    act = np.asarray(seg.activity)
+    hop = float(seg.timeline_t_s[1] - seg.timeline_t_s[0]) if len(seg.timeline_t_s) > 1 else 0.1
+    runs = [(i0, i1) for i0, i1 in _runs(act == "standing") if (i1 - i0) * hop >= s.min_standing_s]
+    if not runs:
+        return a, None
+    i0, i1 = runs[-1]
+    t0, t1 = float(seg.timeline_t_s[i0]), float(seg.timeline_t_s[i1 - 1])
+    if t0 <= first[1]:
+        return a, None
+    m0 = (t >= first[0]) & (t <= first[1])
+    m1 = (t >= t0) & (t <= t1)
+    if m0.sum() < 3 or m1.sum() < 3:
+        return a, None
+    d = np.median(a[m1][:, [0, 2]], axis=0) - np.median(a[m0][:, [0, 2]], axis=0)
+    if np.max(np.abs(d)) > s.max_drift_deg:
+        return a, None
+    ta, tb = 0.5 * (first[0] + first[1]), 0.5 * (t0 + t1)
+    w = np.clip((t - ta) / (tb - ta), 0.0, 1.0)
+    out = a.copy()
+    out[:, 0] -= w * d[0]
+    out[:, 2] -= w * d[1]
+    return out, d
 
 
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -255,7 +286,15 @@ def span_indicators(
         asym["step_time_asymmetry_pct"] = 100.0 * 2 * (r - 1) / (r + 1) if math.isfinite(r) else float("nan")
         asym["n_steps"] = float(st.size)
     ind = replace(ind, cadence_spm=float(cadence), asymmetry=asym)
-    ind = ind.with_classification(classify(ind.to_dict(), baseline))
+    if kind == "acc":
+        # An accelerometer alone sees no turns (their centripetal acceleration tilts the low-passed "gravity") and
+        # no swing (gravity angles are low-passed): its inclinations are indicative only, not a posture label.
+        ind = ind.with_classification(Classification("unclassified", (
+            "accelerometer only: no gyroscope to exclude turns or measure swings, so no posture label "
+            f"(pitch {ind.axes['pitch'].inclination_mean:.1f} deg, roll {ind.axes['roll'].inclination_mean:.1f} deg "
+            "from gravity, indicative)",)))
+    else:
+        ind = ind.with_classification(classify(ind.to_dict(), baseline))
     doc = {
         "start_s": _num(t0, 3), "end_s": _num(t1, 3), "activity": "walking", "n_steps": int(st.size),
         "cadence_spm": _num(cadence, 2), "spectral_cadence_spm": _num(spectral, 2),
@@ -335,6 +374,11 @@ def analyze_session(
     else:
         a = heading_free_angles(t, a, ref)
         ref_out = ref[[0, 2]]
+        if stand is not None:
+            a, drift = _remove_drift(t, a, seg, stand, s)
+            if drift is not None:
+                ref_source += f"; drift {drift[0]:+.2f} / {drift[1]:+.2f} deg (pitch / roll) removed up to the last " \
+                              "standing phase"
     ref_zero = np.zeros(3)
     seg_docs: list[dict[str, Any]] = []
     bout_docs: list[dict[str, Any]] = []
