@@ -29,7 +29,7 @@ from walkmon.commands.cli import main as walkmon_main
 from walkmon.consts import ANGLE_COLUMNS
 from walkmon.gait.indicators import compute_indicators
 from walkmon.simulate import GaitModel
-from walkmon.tables import read_indicators, read_table
+from walkmon.tables import read_table
 
 WALKS = ("normal", "left_shoulder_down", "right_foot_drag", "bend")
 AXES = ("pitch", "yaw", "roll")

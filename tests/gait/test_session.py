@@ -75,7 +75,7 @@ def test_a_recording_that_starts_mid_walk_needs_no_standing_start() -> None:
 
 
 def test_baseline_and_paper_keys_round_trip(tmp_path) -> None:
-    from walkmon.gait.indicators import read_indicators, write_indicators
+    from walkmon.tables import read_indicators, write_indicators
 
     model = GaitModel("left_shoulder_down", 16.0, seed=1)
     t = np.arange(0.0, model.duration_s, 1 / FPS)

@@ -10,7 +10,7 @@ from walkmon.commands.indicators import _existing_file as existing_small_file
 from walkmon.commands.sessions import session_id_arg
 
 NAME = "report"
-HELP = "write indicators.json and report.html for a logged session (same report as 'walkmon analyze')"
+HELP = "write indicators.json, timeline.csv and report.html for a logged session (same report as 'walkmon analyze')"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -29,6 +29,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out or f"session-{args.session_id}")
     files = result.write(out, angles=False)
     label = result.indicators.get("classification", {}).get("label", "?")
-    sys.stdout.write(f"session {args.session_id}: {label}; wrote {files['indicators.json']} and "
+    timeline = f", {files['timeline.csv']}" if "timeline.csv" in files else ""
+    sys.stdout.write(f"session {args.session_id}: {label}; wrote {files['indicators.json']}{timeline} and "
                      f"{files['report.html']}\n")
     return 0
