@@ -39,7 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from walkmon.gait.activity import (
+from walkmon.gait.activity import (  # noqa: E402
     DEFAULT_ACTIVITY_SETTINGS,
     cadence_from_steps,
     segment,

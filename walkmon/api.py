@@ -423,7 +423,7 @@ def _imu_only_columns(
     from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
     imu = read_imu_csv(imu_path)
-    cols = imu_only_columns(imu, _imu_settings(imu_filter, offset_s, calib))
+    cols: dict[str, Any] = dict(imu_only_columns(imu, _imu_settings(imu_filter, offset_s, calib)))
     from walkmon.gait.session import ImuInput  # noqa: PLC0415
 
     cols["_imu_input"] = ImuInput(imu.t_s - imu.t_s[0], imu.accelerometer_m_s2, imu.gyroscope_rad_s)

@@ -192,7 +192,7 @@ def _butter(x: NDArray[np.float64], fs: float, cutoff: float | tuple[float, floa
         sos = signal.butter(2, (lo, hi), btype="band", fs=fs, output="sos")
     else:
         c = min(float(cutoff), 0.9 * nyq)  # type: ignore[arg-type]
-        sos = signal.butter(2, c, btype=btype, fs=fs, output="sos")
+        sos = signal.butter(2, c, btype="low" if btype == "low" else "high", fs=fs, output="sos")
     if len(x) < 16:
         return x.copy()
     return signal.sosfiltfilt(sos, x, axis=0)

@@ -160,8 +160,9 @@ def _upright(
                     return ref, where + " (IMU gravity)", (t0, t1)
                 return ref, where, (t0, t1)
     if has_abs:
-        ok = np.isfinite(abs_deg).all(axis=1)  # type: ignore[union-attr]
-        off = np.median(a[ok][:, [0, 2]] - abs_deg[ok], axis=0)  # type: ignore[index]
+        assert abs_deg is not None  # has_abs
+        ok = np.isfinite(abs_deg).all(axis=1)
+        off = np.median(a[ok][:, [0, 2]] - abs_deg[ok], axis=0)
         return np.array([off[0], 0.0, off[1]]), "gravity (IMU; no standing phase: the sensor is assumed level)", None
     return np.zeros(3), "first frame (no standing phase and no IMU: assumed upright)", None
 
@@ -361,9 +362,10 @@ def analyze_session(
         ref, ref_source, stand = _upright(t, a, seg, absd, s)
     # heading-free inclinations: gravity's pitch/roll with an IMU, else the tilt from the upright pose
     if has_abs:
-        ok = np.isfinite(absd).all(axis=1)  # type: ignore[union-attr]
-        gp = np.interp(t, t[ok], absd[ok, 0])  # type: ignore[index]
-        gr = np.interp(t, t[ok], absd[ok, 1])  # type: ignore[index]
+        assert absd is not None  # has_abs
+        ok = np.isfinite(absd).all(axis=1)
+        gp = np.interp(t, t[ok], absd[ok, 0])
+        gr = np.interp(t, t[ok], absd[ok, 1])
         # the upright pose in gravity angles: the standing phase's, or level
         up_abs = np.zeros(2)
         if stand is not None:
