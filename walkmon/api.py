@@ -107,6 +107,8 @@ class Analysis:
     baseline: Indicators | None = None
     reference_deg: NDArray[np.float64] | None = None
     precision: Mapping[str, int] = field(default_factory=dict)
+    #: timeline.csv rows ``(t, activity, label, pitch, roll)`` at 1 s (walkmon mode; empty in paper mode)
+    timeline: tuple[tuple[float, str, str, float, float], ...] = ()
 
     @property
     def indicators(self) -> dict[str, Any]:
@@ -134,17 +136,27 @@ class Analysis:
         """One line on the frames' estimation status (see :func:`status_summary`); '' without a video."""
         return status_summary(self.estimates) if self.estimates else ""
 
-    def report_html(self) -> str:
-        """report.html as a string."""
-        from walkmon.gait.report import render_report  # noqa: PLC0415  (matplotlib: only when asked)
+    def report_html(self, **timeline: Any) -> str:
+        """report.html as a string. Its timeline is the gait analysis's per-second timeline (walkmon mode) unless
+        ``timeline=`` (and ``timeline_source=``, ``stats=``, ``person=``: see :func:`walkmon.gait.report.render_report`)
+        give another one, e.g. the hops and alerts a live session logged."""
+        from walkmon.gait.report import render_report, timeline_from_columns  # noqa: PLC0415  (matplotlib: when asked)
 
         meta = dict(self.meta)
-        return render_report(self.t_s, self.angles_deg, self.gait, self.baseline, meta, settings=self.settings,
-                             reference_deg=self.reference_deg, abs_angles_deg=self.abs_angles_deg)
+        angles = self.angles_deg
+        if angles.size and np.isnan(angles[:, 1]).all():  # accelerometer only: no yaw, drawn as flat
+            angles[:, 1] = 0.0
+        if "timeline" not in timeline and self.timeline:
+            cols = dict(zip(("t", "activity", "label", "pitch", "roll"), zip(*self.timeline, strict=True), strict=True))
+            timeline = {"timeline": timeline_from_columns(cols),
+                        "timeline_source": "Per second, from the gait analysis (activity, posture segments)."}
+        return render_report(self.t_s, angles, self.gait, self.baseline, meta, settings=self.settings,
+                             reference_deg=self.reference_deg, abs_angles_deg=self.abs_angles_deg, **timeline)
 
-    def write(self, out_dir: str | Path, *, angles: bool = True) -> dict[str, Path]:
+    def write(self, out_dir: str | Path, *, angles: bool = True, report: bool = True) -> dict[str, Path]:
         """Write the files of ``walkmon analyze`` into ``out_dir`` (created): angles.csv (``angles=False``: not),
-        imu.json when an IMU was used, indicators.json, report.html. Returns ``{file name: path}``."""
+        imu.json when an IMU was used, indicators.json, timeline.csv (walkmon mode), report.html (``report=False``:
+        not). Returns ``{file name: path}``."""
         from walkmon.safe_io import json_text, prepare_dir, write_text  # noqa: PLC0415
         from walkmon.tables import write_indicators, write_table  # noqa: PLC0415
 
@@ -159,6 +171,15 @@ class Analysis:
                 write_text(written["imu.json"], json_text(dict(self.imu_info)))  # NaN -> null: valid JSON
         written["indicators.json"] = out / "indicators.json"
         write_indicators(written["indicators.json"], self.gait)
+        if self.timeline:
+            written["timeline.csv"] = out / "timeline.csv"
+            rows = self.timeline
+            write_table(written["timeline.csv"], {
+                "t": np.array([r[0] for r in rows], dtype=float), "activity": [r[1] for r in rows],
+                "label": [r[2] for r in rows], "pitch": np.array([r[3] for r in rows], dtype=float),
+                "roll": np.array([r[4] for r in rows], dtype=float)}, precision={"t": 1, "pitch": 2, "roll": 2})
+        if not report:
+            return written
         written["report.html"] = out / "report.html"
         text = self.report_html()
         write_text(written["report.html"], text)
@@ -243,20 +264,36 @@ def _gait_stage(
     mode: str,
     reference_deg: ArrayLike | None = None,
     meta: Mapping[str, Any] | None = None,
+    imu_input: Any = None,
+    no_yaw: bool = False,
     **fields: Any,
 ) -> Analysis:
-    """The later stages shared by every entry point: indicators and classification from the angle columns."""
+    """The later stages shared by every entry point: in walkmon mode the session analysis (activity, bouts,
+    posture segments, summary, timeline; :mod:`walkmon.gait.session`), in paper mode the paper's whole-recording
+    indicators; ``imu_input``: the raw IMU (:class:`walkmon.gait.session.ImuInput`) for steps and activity."""
     base, base_path = _baseline(baseline)
     settings = IndicatorSettings(mode=mode)
     t = np.asarray(columns["t"], dtype=float)
     a = np.column_stack([np.asarray(columns[c], dtype=float) for c in ("pitch", "yaw", "roll")])
+    if no_yaw:
+        a[:, 1] = 0.0  # accelerometer only: no yaw (angles.csv keeps it empty); indicators report it as null
     ref = None if reference_deg is None else np.asarray(reference_deg, dtype=float)
-    indicators = compute_indicators(t, a, settings, base, reference_deg=ref)
+    timeline: tuple = ()
+    if mode == "paper":
+        indicators = compute_indicators(t, a, settings, base, reference_deg=ref)
+    else:
+        from walkmon.gait.session import analyze_session  # noqa: PLC0415
+
+        absolute = (np.column_stack([np.asarray(columns["pitch_abs"], float), np.asarray(columns["roll_abs"], float)])
+                    if "pitch_abs" in columns and "roll_abs" in columns else None)
+        session = analyze_session(t, a, imu=imu_input, abs_angles_deg=absolute, baseline=base, settings=settings,
+                                  no_yaw=no_yaw, reference_deg=ref)
+        indicators, timeline = session.indicators, session.timeline
     meta = dict(meta or {})
     if base_path:
         meta.setdefault("baseline", base_path)
     return Analysis(angles=_structured(columns), gait=indicators, meta=meta, settings=settings, baseline=base,
-                    reference_deg=ref, **fields)
+                    reference_deg=ref, timeline=timeline, **fields)
 
 
 # --------------------------------------------------------------------------------------------- analyze
@@ -362,6 +399,30 @@ def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) ->
                           accelerometer_calibration=accel)
 
 
+def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Accelerometer-only analysis (``t,ax,ay,az``, issue 11): gravity pitch/roll (the accelerometer low-passed at
+    0.25 Hz, its axes taken as the camera's), no yaw (an empty column); steps and bouts come from the raw samples."""
+    from walkmon.consts import gravity_angles_deg_from_gravity  # noqa: PLC0415
+    from walkmon.gait.activity import gravity_direction  # noqa: PLC0415
+    from walkmon.gait.session import ImuInput  # noqa: PLC0415
+    from walkmon.tables import read_acc_csv  # noqa: PLC0415
+
+    t_raw, acc = read_acc_csv(imu_path)
+    t_raw = t_raw + float(offset_s)
+    rate = (len(t_raw) - 1) / float(t_raw[-1] - t_raw[0])
+    step = max(1, int(np.ceil(rate / 100.0 - 1e-9)))
+    absolute = gravity_angles_deg_from_gravity(-gravity_direction(acc, rate))[::step]
+    t = t_raw[::step] - t_raw[0]
+    rel = absolute - absolute[0]
+    cols: dict[str, Any] = {"t": t, "pitch": rel[:, 0], "yaw": np.full(t.size, np.nan), "roll": rel[:, 1],
+                            "pitch_abs": absolute[:, 0], "roll_abs": absolute[:, 1],
+                            "_imu_input": ImuInput(t_raw - t_raw[0], acc, None)}
+    info = {"mode": "accelerometer_only", "imu": str(imu_path), "samples": len(t_raw), "rate_hz": round(rate, 3),
+            "rows": len(t), "axes": "accelerometer's own axes (no camera extrinsics)",
+            "note": "no gyroscope: pitch/roll from gravity (low-passed accelerometer), no yaw, no turns"}
+    return cols, info
+
+
 def _imu_only_columns(
     imu_path: str | Path, imu_filter: str, offset_s: float, calib: str | Path | None = None
 ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -370,7 +431,10 @@ def _imu_only_columns(
     from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
     imu = read_imu_csv(imu_path)
-    cols = imu_only_columns(imu, _imu_settings(imu_filter, offset_s, calib))
+    cols: dict[str, Any] = dict(imu_only_columns(imu, _imu_settings(imu_filter, offset_s, calib)))
+    from walkmon.gait.session import ImuInput  # noqa: PLC0415
+
+    cols["_imu_input"] = ImuInput(imu.t_s - imu.t_s[0], imu.accelerometer_m_s2, imu.gyroscope_rad_s)
     info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter,
             "accelerometer_calibration": None if calib is None else str(calib), "samples": len(imu.t_s),
             "rate_hz": round(imu.rate_hz, 3), "rows": len(cols["t"]),
@@ -499,19 +563,33 @@ def analyze(
         if imu_extrinsics == "estimate":
             msg = "--imu-extrinsics estimate needs a VIDEO (the camera's rotation is what the IMU is aligned to)"
             raise ConfigError(msg)
-        columns, imu_info = _imu_only_columns(imu, imu_filter, imu_offset_s, imu_calib)
+        from walkmon.tables import imu_file_kind  # noqa: PLC0415
+
+        if imu_file_kind(imu) == "acc":  # t,ax,ay,az: steps, bouts, gravity pitch/roll, no yaw
+            columns, imu_info = _acc_only_columns(imu, imu_offset_s)
+        else:
+            columns, imu_info = _imu_only_columns(imu, imu_filter, imu_offset_s, imu_calib)
+        imu_input = columns.pop("_imu_input")
         precision = dict.fromkeys(columns, 4)
         source = f"IMU only: {imu}"
     else:
         estimates = _video_rotations(video, calib, method, progress)
         columns = angle_columns(estimates)
+        imu_input = None
         if imu is not None:  # camera-IMU fusion: fused pitch/yaw/roll, + pitch_abs/roll_abs, *_video kept
             columns, imu_info = _fused_columns(columns, estimates, imu, imu_offset_s, imu_extrinsics, imu_filter, imu_calib)
+            from walkmon.gait.session import ImuInput  # noqa: PLC0415
+            from walkmon.tables import read_imu_csv  # noqa: PLC0415
+
+            rec = read_imu_csv(imu)  # the raw samples for steps and activity, on the frames' time base
+            imu_input = ImuInput(rec.t_s + float(imu_offset_s) - estimates[0].t_s, rec.accelerometer_m_s2,
+                                 rec.gyroscope_rad_s)
         precision = dict(_PRECISION)
         source = str(video)
+    no_yaw = bool(imu_info is not None and imu_info.get("mode") == "accelerometer_only")
     return _gait_stage(columns, baseline=baseline, mode=mode, meta={"video": source, "rotation method": method},
                        estimates=tuple(estimates), imu_info=imu_info, source=source, method=method,
-                       precision=precision)
+                       precision=precision, imu_input=imu_input, no_yaw=no_yaw)
 
 
 # --------------------------------------------------------------------------------------------- sessions

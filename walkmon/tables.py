@@ -31,8 +31,8 @@ if TYPE_CHECKING:
     from walkmon.imu.calibration import AccelerometerCalibration
     from walkmon.imu.recordings import ImuRecording
 
-__all__ = ["ImuFile", "read_accelerometer_calibration", "read_imu_csv", "read_imu_file", "read_indicators",
-           "read_table", "write_indicators", "write_table"]
+__all__ = ["ACC_COLUMNS", "ImuFile", "imu_file_kind", "read_acc_csv", "read_accelerometer_calibration", "read_imu_csv",
+           "read_imu_file", "read_indicators", "read_table", "write_indicators", "write_table"]
 
 _log = logging.getLogger(__name__)
 
@@ -179,6 +179,34 @@ def read_imu_csv(path: str | Path) -> ImuRecording:
 
     f = read_imu_file(path, min_rows=10)
     return ImuRecording(f.t_s, f.gyroscope_rad_s, f.accelerometer_m_s2)
+
+
+#: Columns of an accelerometer-only recording (a phone, a cheap accelerometer in a neck pouch).
+ACC_COLUMNS = ("t", "ax", "ay", "az")
+
+
+def imu_file_kind(path: str | Path) -> str:
+    """'imu' for ``t,gx,gy,gz,ax,ay,az``; 'acc' for ``t,ax,ay,az`` without a gyroscope (issue 11)."""
+    cols = read_table(path, ACC_COLUMNS)
+    return "imu" if all(c in cols for c in ("gx", "gy", "gz")) else "acc"
+
+
+def read_acc_csv(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(t (N,) s, acc (N,3) m/s²) of an accelerometer-only file; non-finite values or time stamps that do not
+    increase are one clear error (InvalidInputError)."""
+    cols = read_table(path, ACC_COLUMNS)
+    t = np.asarray(cols["t"], dtype=float)
+    acc = np.column_stack([cols["ax"], cols["ay"], cols["az"]]).astype(float)
+    if len(t) < 10:
+        msg = f"{path}: only {len(t)} accelerometer samples; need at least 10"
+        raise InvalidInputError(msg)
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(acc))):
+        msg = f"{path}: non-numeric or missing values in t,ax,ay,az"
+        raise InvalidInputError(msg)
+    if np.any(np.diff(t) <= 0):
+        msg = f"{path}: accelerometer timestamps must strictly increase"
+        raise InvalidInputError(msg)
+    return t, acc
 
 
 def read_accelerometer_calibration(path: str | Path) -> AccelerometerCalibration:

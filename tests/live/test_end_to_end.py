@@ -49,7 +49,9 @@ def test_bend_alert_in_time_and_cleared_none_while_standing(live_session: tuple[
     assert BEND_END_S < events[1][2] <= bend_clip.duration_s
     label = dict(zip(hops["t_s"], hops["label"], strict=True))
     assert label[1.0] == "not_walking" and label[2.0] == "not_walking"  # standing: no walking, no alert
-    assert label[BEND_END_S - 1.0] == "bend" and label[BEND_START_S - 1.0] == "normal"
+    assert label[BEND_END_S - 1.0] == "bend"
+    # 4 s into the walk: normal, or unclassified while fewer than 8 steps are seen (the one classifier's minimum)
+    assert label[BEND_START_S - 1.0] in ("normal", "unclassified")
 
 
 def test_live_angles_equal_offline_estimator_angles(live_session: tuple[Path, int], bend_clip) -> None:  # noqa: ANN001

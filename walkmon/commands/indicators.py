@@ -20,7 +20,7 @@ HELP = "gait indicators, walk classification and report.html from an angles CSV 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("angles", help="CSV with columns t,pitch,yaw,roll in degrees; pitch_abs,roll_abs (an angles.csv "
                    "of 'walkmon analyze --imu') add the report's absolute-angle section; other columns are ignored")
-    p.add_argument("--out", required=True, help="output folder for indicators.json and report.html")
+    p.add_argument("--out", required=True, help="output folder for indicators.json, timeline.csv and report.html")
     add_gait_arguments(p)
 
 
@@ -118,7 +118,17 @@ def run(args: argparse.Namespace) -> int:
 def summary_line(json_path: Path, html_path: Path, indicators: Any) -> str:
     """What the commands print: label, cadence, reasons and where the files went."""
     cls = indicators.classification
+    extra = ""
+    summary = indicators.session.get("summary") if indicators.session else None
+    if summary:
+        ref = indicators.session.get("upright_reference", {}).get("source", "")
+        extra = (f" in {summary['n_bouts']} bout(s), {summary['n_steps']} steps, {summary['n_turns']} turn(s); "
+                 f"upright reference: {ref}")
+        notes = indicators.session.get("input", {}).get("notes") or []
+        extra += "".join(f"\n  note: {n}" for n in notes)
+    lines = "\n  ".join(cls.reasons)
+    timeline = f"\n-> {Path(json_path).parent / 'timeline.csv'}" if summary is not None else ""
     return (
-        f"{cls.label}: cadence {indicators.cadence_spm:.1f} steps/min, walking {indicators.walking_s:.1f} s "
-        f"[{indicators.status.value}]\n  " + "\n  ".join(cls.reasons) + f"\n-> {json_path}\n-> {html_path}\n"
+        f"{cls.label}: cadence {indicators.cadence_spm:.1f} steps/min, walking {indicators.walking_s:.1f} s{extra} "
+        f"[{indicators.status.value}]\n  " + lines + f"\n-> {json_path}{timeline}\n-> {html_path}\n"
     )

@@ -40,7 +40,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Any
 
@@ -83,9 +83,14 @@ __all__ = [
 _log = logging.getLogger(__name__)
 
 #: Version of the indicators.json layout; bumped only when a field changes meaning or disappears.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+# 2: bouts, segments, summary, timeline-related fields (upright_reference, activity_s, input); the top-level
+#    indicators are the duration-weighted aggregate over walking bouts in walkmon mode (issue 11)
 
 MODES = ("walkmon", "paper")
+
+#: indicators.json keys of the session-level additions (schema 2), kept as plain JSON values.
+SESSION_KEYS = ("upright_reference", "input", "activity_s", "summary", "bouts", "segments", "turns")
 
 _NAN = float("nan")
 
@@ -111,6 +116,8 @@ class IndicatorSettings:
     min_walking_s                 3.0          shorter walking parts give status TOO_SHORT
     max_drift_deg                 8.0          walkmon: an end stance further than this (pitch/roll) from the
                                                start one is not taken as upright (no drift line)
+    find_standing                 True         walkmon: look for standing phases at the ends (False: the span
+                                               is all walking, e.g. a bout found by walkmon.gait.activity)
     ============================  ===========  =====================================================================
     """
 
@@ -127,6 +134,7 @@ class IndicatorSettings:
     min_cycle_fraction: float = 0.6
     min_walking_s: float = 3.0
     max_drift_deg: float = 8.0
+    find_standing: bool = True
 
     def __post_init__(self) -> None:
         if self.mode not in MODES:
@@ -209,6 +217,9 @@ class Indicators:
     standing_end_s: tuple[float, float] | None = None
     reference_deg: Mapping[str, float] = field(default_factory=dict)
     drift_removed_deg: Mapping[str, float] = field(default_factory=dict)
+    #: Session-level additions (schema 2): bouts, segments, summary, upright_reference, activity_s, input ...
+    #: as JSON-ready values, written after the fields above.
+    session: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def step_frequency_hz(self) -> float:
@@ -216,21 +227,11 @@ class Indicators:
 
     def with_classification(self, classification: Classification) -> Indicators:
         """A copy with another classification."""
-        return Indicators(
-            self.cadence_spm,
-            self.duration_s,
-            self.walking_s,
-            self.axes,
-            self.asymmetry,
-            classification,
-            self.status,
-            self.mode,
-            self.walking_interval_s,
-            self.standing_start_s,
-            self.standing_end_s,
-            self.reference_deg,
-            self.drift_removed_deg,
-        )
+        return replace(self, classification=classification)
+
+    def with_session(self, session: Mapping[str, Any]) -> Indicators:
+        """A copy with the session-level additions (bouts, segments, summary, ...)."""
+        return replace(self, session=dict(session))
 
     def to_dict(self) -> dict[str, Any]:
         """The indicators.json document (NaN becomes null)."""
@@ -249,6 +250,7 @@ class Indicators:
             "standing_end_s": None if self.standing_end_s is None else [_num(v) for v in self.standing_end_s],
             "reference_deg": {k: _num(v) for k, v in self.reference_deg.items()},
             "drift_removed_deg": {k: _num(v) for k, v in self.drift_removed_deg.items()},
+            **dict(self.session),
         }
 
 
@@ -593,7 +595,7 @@ def _analyze_walkmon(
     t: NDArray, raw: NDArray, fs: float, settings: IndicatorSettings, duration: float, reference_deg: ArrayLike | None
 ) -> GaitAnalysis:
     n = t.size
-    start, end = detect_standing(t, raw, settings)
+    start, end = detect_standing(t, raw, settings) if settings.find_standing else (None, None)
     margin = round(settings.transition_s * fs)
     i0 = start[1] + margin if start else 0
     i1 = end[0] - margin if end else n
@@ -814,4 +816,5 @@ def indicators_from_dict(doc: Mapping[str, Any], source: str = "indicators") -> 
         drift_removed_deg={
             str(k): num(v, f"drift_removed_deg.{k}") for k, v in (doc.get("drift_removed_deg") or {}).items()
         },
+        session={k: doc[k] for k in SESSION_KEYS if k in doc},
     )

@@ -7,8 +7,10 @@ sample (capture time and (pitch, yaw, roll) in degrees relative to the first fra
 * **Upright calibration.** At the start, and again after :meth:`request_calibration` (SIGUSR1 in ``walkmon
   live``), the stage waits for ``calibration_s`` of stillness and takes the mean angles as the upright
   reference; inclinations are measured from it. Until then the first frame is the reference.
-* **Not walking** is detected from the gait-band RMS of the angles over the last ``walking_window_s``; the
-  alert stage does not alert then.
+* **Activity** (standing / walking / turning / unknown) from the same segmentation as the offline analysis
+  (:mod:`walkmon.gait.activity`) run on the window: walking when the window's last walking bout (>= 4 steps)
+  reaches the present (its last step within ``1.5`` steps of now), so a clip that starts mid-walk is walking
+  from its first full window. ``walking`` is False otherwise (label ``not_walking``; no alerts then).
 * **Cadence** from the FFT peak of the pitch waveform (the vertical rhythm is at step frequency), refined below
   the bin width by parabolic interpolation of the log magnitude.
 * **Swing** (per axis, mean over gait cycles of max - min, the paper's φ) and **inclination** (mean over cycles
@@ -16,8 +18,11 @@ sample (capture time and (pitch, yaw, roll) in degrees relative to the first fra
   strides for yaw and roll.
 * **Posture** = mean calibrated angles over the last ``posture_window_s``: what alerts react to, so that a
   change of posture shows up within about a second rather than after half a window.
-* **Label**: normal / bend / left_shoulder_down / right_foot_drag / not_walking / unclassified, by documented
-  thresholds (``classify_window``), following the paper's Sec. 5.2 reasoning.
+* **Label**: the offline analysis's classifier on the window's walking span
+  (:func:`walkmon.gait.session.span_indicators` -> :func:`walkmon.gait.posture.classify`: the same function,
+  thresholds and reasons as ``walkmon analyze``), plus ``not_walking``. Swing and inclination shown with the
+  label are those the classifier saw (heading-free tilt from the upright reference); the cheap per-cycle values
+  are used only when the span is too short to classify.
 """
 
 from __future__ import annotations
@@ -38,7 +43,6 @@ __all__ = [
     "LiveIndicatorStage",
     "LiveIndicators",
     "cadence_hz_from_signal",
-    "classify_window",
     "cycle_extremes",
     "gait_band_rms_deg",
     "resample_uniform",
@@ -77,7 +81,8 @@ class LiveIndicatorSettings:
     calibration_max_std_deg: float = 0.3
     #: Uniform resampling rate of the analysis, Hz.
     resample_hz: float = 30.0
-    #: Classification thresholds, degrees (``classify_window``).
+    #: Deprecated, kept so that existing config files still load: labels now come from the one classifier
+    #: (:mod:`walkmon.gait.posture`, the offline thresholds); these four values are not used.
     bend_pitch_deg: float = 10.0
     shoulder_down_roll_deg: float = 4.0
     foot_drag_roll_swing_deg: float = 6.0
@@ -132,6 +137,7 @@ class LiveIndicators:
     calibrated: bool
     calibration: CalibrationEvent | None = None
     extra: dict[str, float] = field(default_factory=dict)
+    activity: str = "unknown"
 
     def to_dict(self) -> dict[str, object]:
         def num(v: float) -> float | None:
@@ -142,6 +148,7 @@ class LiveIndicators:
             "window_s": self.window_s,
             "n_samples": self.n_samples,
             "walking": self.walking,
+            "activity": self.activity,
             "gait_rms_deg": num(self.gait_rms_deg),
             "cadence_spm": num(self.cadence_spm),
             "axes": {
@@ -257,34 +264,6 @@ def step_asymmetry_from_pitch(pitch_deg: NDArray[np.float64], rate_hz: float, st
     return _amplitude_at(pitch_deg, rate_hz, step_hz / 2.0) / a_step
 
 
-def classify_window(
-    inclination_deg: tuple[float, float, float],
-    swing_deg: tuple[float, float, float],
-    step_asymmetry: float,
-    walking: bool,
-    settings: LiveIndicatorSettings = DEFAULT_LIVE_INDICATOR_SETTINGS,
-) -> tuple[str, tuple[str, ...]]:
-    """Label of one window with its reasons (thresholds from ``settings``; paper Sec. 5.2 reasoning)."""
-    if not walking:
-        return "not_walking", ("gait-band motion below the walking threshold",)
-    pitch_inc, _, roll_inc = inclination_deg
-    roll_swing = swing_deg[2]
-    if not all(math.isfinite(v) for v in (pitch_inc, roll_inc)):
-        return "unclassified", ("no complete gait cycle in the window",)
-    if pitch_inc < -settings.bend_pitch_deg:
-        return "bend", (f"pitch inclination {pitch_inc:.1f} deg < -{settings.bend_pitch_deg:g} deg",)
-    if roll_inc < -settings.shoulder_down_roll_deg:
-        return "left_shoulder_down", (f"roll inclination {roll_inc:.1f} deg < -{settings.shoulder_down_roll_deg:g}",)
-    reasons = []
-    if math.isfinite(roll_swing) and roll_swing > settings.foot_drag_roll_swing_deg:
-        reasons.append(f"roll swing {roll_swing:.1f} deg > {settings.foot_drag_roll_swing_deg:g} deg")
-    if math.isfinite(step_asymmetry) and step_asymmetry > settings.foot_drag_asymmetry:
-        reasons.append(f"step asymmetry {step_asymmetry:.2f} > {settings.foot_drag_asymmetry:g}")
-    if reasons:
-        return "right_foot_drag", tuple(reasons)
-    return "normal", ("inclination and swings within the normal thresholds",)
-
-
 # ------------------------------------------------------------------------------------------------- the stage
 
 
@@ -307,6 +286,7 @@ class LiveIndicatorStage:
         self._calibrated = False
         self._calibration_pending = "start"
         self._pending_event: CalibrationEvent | None = None
+        self._last_steps = np.zeros(0)
 
     @property
     def reference_deg(self) -> NDArray[np.float64]:
@@ -415,7 +395,17 @@ class LiveIndicatorStage:
                 if self._steady_walk(grid, u, fs, f_step):
                     asym = step_asymmetry_from_pitch(u[:, 0], fs, f_step)
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
-        label, reasons = classify_window(incl, swing, asym, walking, s)  # type: ignore[arg-type]
+        activity, span = self._activity(t, np.asarray(self._a, dtype=float), t_now)
+        walking = activity == "walking"
+        label, reasons = "not_walking", (f"activity {activity}: no walking bout reaching the present",)
+        if walking and span is not None:
+            ind = self._classify_span(t, np.asarray(self._a, dtype=float), span)
+            label, reasons = ind.classification.label, tuple(ind.classification.reasons)
+            if ind.status.value == "ok":
+                swing = tuple(ind.axes[ax].swing_mean for ax in AXES)  # type: ignore[assignment]
+                incl = tuple(ind.axes[ax].inclination_mean for ax in AXES)  # type: ignore[assignment]
+                if math.isfinite(ind.cadence_spm):
+                    cadence_spm = ind.cadence_spm
         event, self._pending_event = self._pending_event, None
         return LiveIndicators(
             t_s=float(t_now),
@@ -432,4 +422,44 @@ class LiveIndicatorStage:
             reasons=reasons,
             calibrated=self._calibrated,
             calibration=event,
+            activity=activity,
         )
+
+    def _activity(self, t: NDArray[np.float64], a: NDArray[np.float64], t_now: float) -> tuple[
+        str, tuple[float, float] | None
+    ]:
+        """Activity at ``t_now`` from the window's segmentation, and the walking span to classify."""
+        from walkmon.gait.activity import segment, signals_from_angles  # noqa: PLC0415
+
+        if len(t) < 10 or t[-1] - t[0] < 2.0:
+            return "unknown", None
+        try:
+            seg = segment(signals_from_angles(t, a))
+        except Exception:  # noqa: BLE001 - a degenerate window is 'unknown', never a crash of the live loop
+            return "unknown", None
+        for u in seg.turns:
+            if u.end_s >= t_now - 0.5:
+                return "turning", None
+        if seg.bouts:
+            b = seg.bouts[-1]
+            d = np.diff(b.steps_s)
+            step = float(np.median(d)) if d.size else 1.0
+            if t_now - b.end_s <= max(1.5 * step, 1.0):
+                # the span after the last turn inside the bout
+                start = max([b.start_s, *(u.end_s for u in seg.turns if u.end_s <= b.end_s)])
+                self._last_steps = seg.steps_s
+                return "walking", (start, float(b.end_s))
+        act = seg.activity_at(np.array([t_now]))[0]
+        return ("standing" if act == "standing" else "unknown"), None
+
+    def _classify_span(self, t: NDArray[np.float64], a: NDArray[np.float64], span: tuple[float, float]):  # noqa: ANN202
+        """The offline classifier on the window's walking span (heading-free angles from the reference)."""
+        from walkmon.gait.session import change_points, heading_free_angles, span_indicators  # noqa: PLC0415
+
+        hf = heading_free_angles(t, a, self._reference)
+        steps = self._last_steps  # the window's steps, from the segmentation that found the walking span
+        m = (t >= span[0]) & (t <= span[1])
+        cuts = change_points(t[m], hf[m])  # a posture change inside the span: classify what follows it
+        start = cuts[-1] if cuts else span[0]
+        ind, _ = span_indicators(t, hf, start, span[1], np.zeros(3), steps, "angles")
+        return ind

@@ -18,6 +18,7 @@ Default thresholds (degrees; see :class:`PostureThresholds`):
 rule                                   no baseline with a baseline (differences walk - baseline)
 =====================================  ==========  =================================================================
 right_foot_drag: total swing           >= 16 deg   >= 2.0 x the baseline's total swing (pitch + yaw + roll)
+  ... and alternating steps differ     time ratio >= 1.08 or swing ratio >= 1.3 (no baseline only)
 left_shoulder_down: roll inclination   <= -3 deg   drops by >= T_r, and by >= 0.3 x the pitch inclination's drop
 bend: pitch inclination                <= -8 deg   drops by >= T_p, and pitch lmax and lmin both drop
 normal: everything inside              |rho| < 3   total swing ratio in [0.5, 2), |d rho_p| < T_p, |d rho_r| < T_r
@@ -30,6 +31,16 @@ On the paper's Table 3 (swings ~1 deg) that gives T_r = 0.41 and T_p = 0.82 deg;
 (swings 2-4 deg) about 1-1.7 deg, above the +-0.5 deg posture offsets the simulator draws for normal walks.
 
 Anything else (e.g. leaning right or backward) is ``unclassified``, with the reasons saying what was seen.
+
+No false alarms without a baseline (issue 11): a large trunk sway alone is not a pathology: turns, gait
+initiation and a lower-back or loosely worn sensor all give large swings in healthy people (28 of 28 real
+healthy walks were labelled right_foot_drag by the sway rule alone). Without a baseline, right_foot_drag also
+needs left/right alternation of the detected steps (step time ratio >= 1.08 or step swing ratio >= 1.3, as the
+paper's dragged foot and the simulator show); a large symmetric sway is ``unclassified`` with that reason. With
+fewer than ``min_steps`` (8) steps nothing is labelled (``unclassified``: too little walking).
+
+This is the one classifier of walkmon: the offline analysis (per bout and posture segment) and the live
+monitor's windows (:mod:`walkmon.live_indicators`) both call :func:`classify`.
 """
 
 from __future__ import annotations
@@ -75,6 +86,10 @@ class PostureThresholds:
     left_roll_inclination_deg: float = -3.0
     bend_pitch_inclination_deg: float = -8.0
     normal_max_inclination_deg: float = 3.0
+    # evidence needed before any label without a baseline (issue 11: no false alarms on healthy walks)
+    drag_step_time_ratio: float = 1.08
+    drag_step_swing_ratio: float = 1.3
+    min_steps: int = 8
     # relative (with a baseline)
     drag_swing_ratio: float = 2.0
     left_roll_drop_deg: float = 0.3
@@ -121,6 +136,12 @@ def classify(
     values = [_axis(indicators, a, k) for a in ("pitch", "roll") for k in ("swing_mean", "inclination_mean")]
     if not all(math.isfinite(v) for v in values):
         return Classification("unclassified", ("pitch or roll indicators missing (no full gait cycle)",))
+    n_steps = (indicators.get("asymmetry") or {}).get("n_steps")  # detected steps (IMU) or pitch cycles
+    if n_steps is None:
+        n_steps = _axis(indicators, "pitch", "n_cycles")
+    if math.isfinite(n_steps) and n_steps < thresholds.min_steps:
+        return Classification("unclassified", (
+            f"only {n_steps:.0f} steps (< {thresholds.min_steps}): too little walking to label",))
     if baseline is not None:
         label, reasons = _relative(indicators, baseline, thresholds)
     else:
@@ -144,9 +165,27 @@ def _extras(doc: Mapping[str, Any]) -> list[str]:
     return notes
 
 
+def _asym(doc: Mapping[str, Any], key: str) -> float:
+    v = (doc.get("asymmetry") or {}).get(key)
+    return float("nan") if v is None else float(v)
+
+
+def _alternating(doc: Mapping[str, Any], th: PostureThresholds) -> bool:
+    """Evidence of a left/right difference of alternating steps."""
+    return _asym(doc, "step_time_ratio") >= th.drag_step_time_ratio or (
+        _asym(doc, "step_swing_ratio") >= th.drag_step_swing_ratio)
+
+
 def _absolute(doc: Mapping[str, Any], th: PostureThresholds) -> tuple[str, list[str]]:
     rho_p, rho_r = _axis(doc, "pitch", "inclination_mean"), _axis(doc, "roll", "inclination_mean")
     total = _total_swing(doc)
+    if math.isfinite(total) and total >= th.drag_total_swing_deg and not _alternating(doc, th):
+        return "unclassified", [
+            f"total swing {total:.1f} deg >= {th.drag_total_swing_deg:g} deg but alternating steps do not differ "
+            f"(step time ratio {_asym(doc, 'step_time_ratio'):.2f} < {th.drag_step_time_ratio:g}, swing ratio "
+            f"{_asym(doc, 'step_swing_ratio'):.2f} < {th.drag_step_swing_ratio:g}): large sway alone is no "
+            "pathology label without a baseline",
+        ]
     if math.isfinite(total) and total >= th.drag_total_swing_deg:
         reasons = [
             f"total swing {total:.1f} deg (pitch {_axis(doc, 'pitch', 'swing_mean'):.1f}, yaw "

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import base64
 import contextlib
+import html
 import io
 import logging
 import math
@@ -238,6 +239,59 @@ def timeline_from_angles(t_s: np.ndarray, angles_deg: np.ndarray, doc: Mapping[s
     return {"hops": cols, "alerts": [], "thresholds": {}, "hop_s": hop_s}
 
 
+def _session_section(doc: Mapping[str, Any]) -> str:
+    """Walking bouts, posture segments and turns of a walkmon-mode analysis (schema 2); '' in paper mode."""
+    if "segments" not in doc:
+        return ""
+    summary = doc.get("summary") or {}
+    ref = doc.get("upright_reference") or {}
+    head = ("<tr><th>start [s]</th><th>end [s]</th><th>steps</th><th>cadence [spm]</th><th>spectral [spm]</th>"
+            "<th>pitch &rho; [deg]</th><th>roll &rho; [deg]</th><th>total swing [deg]</th><th>label</th></tr>")
+
+    def rows(items: list[Mapping[str, Any]]) -> str:
+        out = []
+        for d in items:
+            axes = d.get("axes") or {}
+
+            def ax(name: str, key: str, axes=axes) -> Any:  # noqa: ANN001
+                a = axes.get(name) or {}
+                return a.get(key)
+
+            swings = [ax(a, "swing_mean") for a in ("pitch", "yaw", "roll")]
+            total = sum(v for v in swings if v is not None) if any(v is not None for v in swings) else None
+            out.append(f"<tr><td>{_fmt(d.get('start_s'), 1)}</td><td>{_fmt(d.get('end_s'), 1)}</td>"
+                       f"<td>{d.get('n_steps')}</td><td>{_fmt(d.get('cadence_spm'), 1)}</td>"
+                       f"<td>{_fmt(d.get('spectral_cadence_spm'), 1)}</td><td>{_fmt(ax('pitch', 'inclination_mean'), 1)}"
+                       f"</td><td>{_fmt(ax('roll', 'inclination_mean'), 1)}</td><td>{_fmt(total, 1)}</td>"
+                       f"<td title='{html.escape('; '.join(d.get('reasons') or []))}'>{html.escape(str(d.get('label')))}"
+                       "</td></tr>")
+        return "".join(out)
+
+    turns = ", ".join(f"{_fmt(u.get('start_s'), 1)}-{_fmt(u.get('end_s'), 1)} s ({_fmt(u.get('angle_deg'), 0)} deg)"
+                      for u in doc.get("turns") or []) or "none"
+    times = ", ".join(f"{k} {_fmt(v, 1)} s" for k, v in (doc.get("activity_s") or {}).items())
+    posture = ", ".join(f"{k} {_fmt(v, 1)} s" for k, v in (summary.get("posture_time_s") or {}).items()) or "none"
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in (doc.get("input") or {}).get("notes") or [])
+    return (f"<h2>Activity, walking bouts and posture segments</h2>\n<p class='small'>Activity: {html.escape(times)}. "
+            f"Upright reference: {html.escape(str(ref.get('source', '?')))}. Labelled walking time: "
+            f"{html.escape(posture)}. Turns: {html.escape(turns)}. The summary above is the duration-weighted "
+            f"aggregate over the posture segments (turns excluded).</p>{f'<ul>{notes}</ul>' if notes else ''}\n"
+            f"<h3>Bouts</h3><table>{head}{rows(doc.get('bouts') or [])}</table>\n"
+            f"<h3>Posture segments</h3><table>{head}{rows(doc.get('segments') or [])}</table>")
+
+
+def _markup(text: str) -> Any:
+    """``text`` (HTML built with every value escaped) marked safe for the autoescaping template."""
+    from markupsafe import Markup  # noqa: PLC0415
+
+    return Markup(text)  # noqa: S704  (values inside were escaped with html.escape)
+
+
+def _kv_table(items: Mapping[str, Any]) -> str:
+    rows = "".join(f"<tr><td>{html.escape(str(k))}</td><td>{_fmt(v)}</td></tr>" for k, v in items.items())
+    return f"<table>{rows}</table>"
+
+
 def timeline_from_columns(cols: Mapping[str, Sequence[Any]], hop_s: float = 1.0) -> dict[str, Any]:
     """The gait analysis's timeline.csv (``t,activity,label,pitch,roll`` at 1 s) in the timeline shape."""
     activity = [str(v or "") for v in cols["activity"]]
@@ -323,7 +377,7 @@ def render_report_html(
         asymmetry=list(doc["asymmetry"].items()), figures=_figures(analysis),
         absolute=_absolute_section(analysis.t_s, analysis.raw_deg,
                                    None if abs_angles_deg is None else np.asarray(abs_angles_deg, float).reshape(-1, 2)),
-        session=session, reference=reference)
+        session=session, reference=reference, session_section=_markup(_session_section(doc)))
     return text.lstrip()
 
 

@@ -1,0 +1,73 @@
+"""walkmon analyze/indicators gait outputs: timeline.csv, bouts/segments in indicators.json, accelerometer-only."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from walkmon.commands.cli import main
+from walkmon.simulate.gait import GaitModel
+from walkmon.tables import read_table, write_table
+
+G = 9.80665
+
+
+def _acc_walk(path: Path, *, seconds_walk: float = 20.0, step_s: float = 0.6) -> int:
+    """t,ax,ay,az of a trunk accelerometer: 3 s standing, walking, 3 s standing; returns the true step count."""
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, seconds_walk + 6.0, 0.01)
+    vert = np.zeros_like(t)
+    steps = np.arange(3.0 + step_s / 2, 3.0 + seconds_walk, step_s)
+    for s in steps:
+        m = np.abs(t - s) < step_s / 2
+        vert[m] += 2.0 * np.cos(2 * np.pi * (t[m] - s) / step_s)
+    up = np.array([0.0, -np.cos(0.2), np.sin(0.2)])  # a neck pouch tilted ~11 deg
+    acc = (G + vert)[:, None] * up + rng.normal(0, 0.1, (t.size, 3))
+    write_table(path, {"t": t, "ax": acc[:, 0], "ay": acc[:, 1], "az": acc[:, 2]})
+    return steps.size
+
+
+def test_analyze_accelerometer_only(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    n_true = _acc_walk(tmp_path / "acc.csv")
+    assert main(["analyze", "--imu", str(tmp_path / "acc.csv"), "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert "no yaw" in out and "timeline.csv" in out
+    doc = json.loads((tmp_path / "out" / "indicators.json").read_text())
+    assert doc["schema_version"] == 2
+    assert doc["input"]["activity_from"] == "accelerometer only"
+    assert doc["axes"]["yaw"]["swing_mean"] is None
+    assert any("no yaw" in n for n in doc["input"]["notes"])
+    assert doc["summary"]["n_bouts"] == 1
+    assert doc["summary"]["n_steps"] == pytest.approx(n_true, abs=2)
+    assert doc["cadence_spm"] == pytest.approx(100.0, rel=0.01)
+    angles = read_table(tmp_path / "out" / "angles.csv", ("t", "pitch", "roll", "pitch_abs", "roll_abs"))
+    assert np.all(np.isnan(angles["yaw"]))  # no yaw without a gyroscope, said as empty values, not zeros
+    timeline = (tmp_path / "out" / "timeline.csv").read_text().splitlines()
+    assert timeline[0] == "t,activity,label,pitch,roll"
+    rows = [r.split(",") for r in timeline[1:]]
+    assert rows[1][1] == "standing" and rows[10][1] == "walking"
+    assert len(rows) == pytest.approx(26, abs=1)
+
+
+def test_analyze_acc_file_with_a_video_or_bad_rows_is_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "bad.csv").write_text("t,ax,ay,az\n0,1,2,3\n0,1,2,3\n" + "".join(f"{i},1,2,3\n" for i in range(1, 12)))
+    assert main(["analyze", "--imu", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "o")]) == 2
+    assert "strictly increase" in capsys.readouterr().err
+
+
+def test_indicators_writes_timeline_and_segments_and_paper_mode_keeps_the_whole_recording(tmp_path: Path) -> None:
+    model = GaitModel("normal:8,bend:8", seed=2)
+    t = np.arange(0.0, model.duration_s, 1 / 30)
+    a = model.truth_angles_deg(t)
+    write_table(tmp_path / "angles.csv", {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2]})
+    assert main(["indicators", str(tmp_path / "angles.csv"), "--out", str(tmp_path / "w")]) == 0
+    doc = json.loads((tmp_path / "w" / "indicators.json").read_text())
+    assert [s["label"] for s in doc["segments"]] == ["normal", "bend"]
+    assert (tmp_path / "w" / "timeline.csv").is_file()
+    assert main(["indicators", str(tmp_path / "angles.csv"), "--out", str(tmp_path / "p"), "--mode", "paper"]) == 0
+    paper = json.loads((tmp_path / "p" / "indicators.json").read_text())
+    assert paper["mode"] == "paper" and "segments" not in paper
+    assert not (tmp_path / "p" / "timeline.csv").exists()

@@ -1,0 +1,128 @@
+"""Activity segmentation, steps, bouts and turns (walkmon.gait.activity) against synthetic and real truth."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from walkmon.errors import InvalidInputError
+from walkmon.gait.activity import (
+    bouts_from_steps,
+    cadence_from_steps,
+    segment,
+    signals_from_angles,
+    signals_from_imu,
+)
+
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
+if not DATA.is_dir():
+    DATA = Path("/work/shared/data")
+
+
+def _matched(found: np.ndarray, truth: np.ndarray, tol: float) -> int:
+    return int(sum(np.min(np.abs(found - s)) <= tol for s in truth)) if found.size else 0
+
+
+def test_walk_without_standing_start_with_pause_and_turns(synthetic_imu) -> None:
+    """Starts mid-walk, a 2 s pause (joins the bout), a 180 deg and a 90 deg turn, a 5 s stop (splits bouts)."""
+    imu = synthetic_imu([("walk", 8), ("turn", 2.5), ("walk", 5), ("stand", 2), ("walk", 6), ("stand", 5),
+                         ("walk", 4), ("turn", 2), ("walk", 6), ("stand", 3)], seed=1)
+    seg = segment(signals_from_imu(imu.t, imu.acc, imu.gyr))
+    assert len(seg.bouts) == 2  # the 2 s pause joins, the 5 s stop splits (Mobilise-D: breaks < 3 s join)
+    # steps: nearly all true steps found, at a constant small delay at most (one step per step)
+    assert _matched(seg.steps_s, imu.steps, 0.12) >= 0.95 * imu.steps.size
+    assert abs(seg.steps_s.size - imu.steps.size) <= 3
+    for b, (s, e) in zip(seg.bouts, [(imu.bouts[0][0], imu.bouts[1][1]), imu.bouts[2]], strict=True):
+        assert b.start_s == pytest.approx(s, abs=0.6) and b.end_s == pytest.approx(e, abs=0.6)
+        assert b.cadence_spm == pytest.approx(60 / 0.55, rel=0.01)
+        assert b.spectral_cadence_spm == pytest.approx(60 / 0.55, rel=0.03)
+    assert [round(u.angle_deg / 10) * 10 for u in seg.turns] == [180, 180]
+    for u, (s, e, _) in zip(seg.turns, imu.turns, strict=True):
+        assert u.start_s == pytest.approx(s, abs=0.6) and u.end_s == pytest.approx(e, abs=0.6)
+    act = seg.activity_at(np.array([5.0, 9.2, 13.0, 27.5, 33.5]))
+    assert act.tolist() == ["walking", "turning", "walking", "standing", "turning"]
+
+
+def test_asymmetric_and_slow_gait_cadence(synthetic_imu) -> None:
+    # alternating 0.5 / 0.7 s steps (a limp): 100 steps/min; and a slow walker at 72 steps/min
+    imu = synthetic_imu([("stand", 2), ("walk", 20), ("stand", 2)], step_s=(0.5, 0.7), seed=2)
+    (b,) = segment(signals_from_imu(imu.t, imu.acc, imu.gyr)).bouts
+    assert b.cadence_spm == pytest.approx(100.0, rel=0.01)
+    assert abs(b.n_steps - imu.steps.size) <= 2
+    imu = synthetic_imu([("walk", 25)], step_s=60 / 72, seed=3)
+    (b,) = segment(signals_from_imu(imu.t, imu.acc, None)).bouts  # accelerometer only
+    assert b.cadence_spm == pytest.approx(72.0, rel=0.01)
+
+
+def test_accelerometer_only_has_no_turns_and_says_so(synthetic_imu) -> None:
+    imu = synthetic_imu([("walk", 6), ("turn", 2), ("walk", 6)], up=(0.6, -0.8, 0.0))  # tilted mounting
+    seg = segment(signals_from_imu(imu.t, imu.acc, None))
+    assert seg.turns == () and any("no heading" in n for n in seg.notes)
+    assert len(seg.bouts) == 1 and seg.source == "acc"
+
+
+def test_standing_still_and_short_shuffles_are_not_bouts(synthetic_imu) -> None:
+    imu = synthetic_imu([("stand", 6), ("walk", 1.0), ("stand", 6)], seed=4)  # two steps: not a bout
+    seg = segment(signals_from_imu(imu.t, imu.acc, imu.gyr))
+    assert seg.bouts == ()
+    assert seg.activity_at(np.array([2.0, 10.0])).tolist() == ["standing", "standing"]
+
+
+def test_bout_rules_and_cadence_leave_out_pauses() -> None:
+    steps = np.r_[np.arange(10) * 0.5, 4.5 + 2.5 + np.arange(10) * 0.5, 20 + np.arange(3) * 0.5]
+    bouts = bouts_from_steps(steps)
+    assert [(b.start_s, b.n_steps) for b in bouts] == [(0.0, 20)]  # 2.5 s pause joined; 3 steps: no bout
+    assert cadence_from_steps(steps[:20]) == pytest.approx(120.0)  # the strides over the pause are left out
+
+
+def test_video_angles_give_steps_and_bouts() -> None:
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("normal:8,bend:8", seed=4)  # standing, normal, bend mid-walk, standing
+    t = np.arange(0.0, model.duration_s, 1 / 30)
+    seg = segment(signals_from_angles(t, model.truth_angles_deg(t)))
+    assert len(seg.bouts) == 1  # the posture change mid-walk does not break the bout
+    (b,) = seg.bouts
+    phase = model.step_phase(np.array([b.start_s, b.end_s]))
+    assert b.cadence_spm == pytest.approx(60 * (phase[1] - phase[0]) / (b.end_s - b.start_s), rel=0.02)
+    assert b.start_s == pytest.approx(2.0, abs=1.2) and b.end_s == pytest.approx(18.0, abs=1.2)
+
+
+def test_bad_input_is_one_clear_error() -> None:
+    with pytest.raises(InvalidInputError, match="at least 10"):
+        signals_from_imu(np.arange(5.0), np.zeros((5, 3)))
+    with pytest.raises(InvalidInputError, match="increasing"):
+        signals_from_imu(np.r_[np.arange(10.0), 5.0], np.zeros((11, 3)))
+    with pytest.raises(InvalidInputError, match="finite"):
+        signals_from_imu(np.arange(20.0), np.full((20, 3), np.nan))
+
+
+@pytest.mark.skipif(not (DATA / "oxford_neckpouch").is_dir(), reason="shared real data not present")
+def test_oxford_neck_pouch_step_count_within_4_percent_of_the_foot_switches() -> None:
+    """Real data (Oxford Step Counter data set, CC BY 4.0): a phone accelerometer in a neck pouch."""
+    d = DATA / "oxford_neckpouch" / "Samsung_Dario_Hard_NeckPouch_1"
+    a = np.loadtxt(d / "accelerometer.csv", delimiter=",")
+    sc = np.loadtxt(d / "stepcounter.csv", delimiter=",")
+    t = (a[:, 0] - a[0, 0]) * 1e-9
+    keep = np.r_[True, np.diff(t) > 0]
+    seg = segment(signals_from_imu(t[keep], a[keep, 2:5], None))
+    truth = int(np.sum(np.diff(sc[:, 1]) == 1) + np.sum(np.diff(sc[:, 2]) == 1))
+    assert sum(b.n_steps for b in seg.bouts) == pytest.approx(truth, rel=0.04)
+
+
+@pytest.mark.skipif(not (DATA / "mobgap").is_dir(), reason="shared real data not present")
+def test_mobilise_d_straight_walk_cadence_within_2_percent_of_indip() -> None:
+    """Real data (Mobilise-D consortium, mobgap example data, Apache-2.0): MS/001 Test5 Trial1, lower back."""
+    import scipy.io as sio
+
+    m = sio.loadmat(DATA / "mobgap" / "lab" / "MS" / "001" / "data.mat", squeeze_me=True, struct_as_record=False)
+    trial = m["data"].TimeMeasure1.Test5.Trial1
+    su = trial.SU.LowerBack
+    ref = np.atleast_1d(trial.Standards.INDIP.MicroWB)[0]
+    t = np.arange(len(su.Acc)) / 100.0
+    seg = segment(signals_from_imu(t, su.Acc * 9.80665, np.radians(su.Gyr)))
+    (b,) = seg.bouts
+    assert b.cadence_spm == pytest.approx(float(ref.Cadence), rel=0.02)
+    assert b.start_s == pytest.approx(float(ref.Start), abs=0.5) and b.end_s == pytest.approx(float(ref.End), abs=1.0)

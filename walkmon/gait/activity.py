@@ -1,0 +1,496 @@
+"""Activity segmentation and step detection from trunk motion: standing / walking / turning / unknown.
+
+Works on any trunk-worn recording (chest or neck like walkmon's camera, or the lower back like the Mobilise-D
+sensor), from one of three inputs, all reduced to the same two signals on a uniform grid:
+
+* a **step signal** that moves once per step: the vertical acceleration (accelerometer projected on the
+  low-passed gravity direction, gravity removed; m/s²) with an IMU or an accelerometer alone, or the pitch angle
+  (degrees) of a camera's rotation estimate;
+* a **heading rate** (deg/s): the gyroscope's component along gravity with an IMU, the yaw rate of the video
+  angles; none with an accelerometer alone (no turns then, and the output says so).
+
+Processing (:func:`segment`):
+
+1. **Gait candidates**: windows (``window_s``) whose step signal is periodic at a step rhythm (normalised
+   autocorrelation >= ``min_periodicity`` at a lag of one step or one stride, the stride lag covering
+   asymmetric gait) and strong enough (RMS in the gait band >= the source's ``min_rms``).
+2. **Steps** (initial-contact proxies): in each candidate region, the step signal low-passed at
+   ``lowpass_factor`` x the region's step frequency (from the autocorrelation), one maximum per step (maxima at
+   least ``min_step_fraction`` of a step apart). The vertical acceleration peaks just after each heel strike,
+   so the maxima lag the initial contacts by a nearly constant delay: cadence and bouts are unaffected.
+3. **Walking bouts** (Mobilise-D convention, Kluge et al. 2021, PLoS ONE 16(8) e0256541 and the mobgap
+   ``WbAssembly`` defaults): steps closer than ``max_break_s`` = 3 s belong to one bout (a shorter pause
+   joins the bouts around it); a bout needs ``min_steps`` = 4 steps (two strides). A bout runs from its first
+   to its last step.
+4. **Cadence per bout** from the steps: 60 / mean step duration, strides spanning a pause (above
+   ``pause_factor`` x the median stride) or hurried (below the median / ``hurried_factor``) left out; the spectral peak of the bout is kept as a cross-check.
+5. **Turns** (El-Gohary et al. 2013, Sensors 14(1) 356-369; also mobgap's ``TdElGohary``): the heading rate
+   low-passed at 1.5 Hz; a turn is a run above ``turn_edge_deg_s`` (5 deg/s) that peaks above
+   ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
+6. **Timeline** at ``hop_s``: ``turning`` inside turns, ``walking`` inside bouts, ``standing`` where the trunk
+   is still (step-signal RMS and, with a gyro, angular rate below the standing limits) and ``unknown``
+   otherwise (moving without a gait rhythm: sitting down, bending, handling the camera).
+
+Thresholds were chosen on one healthy participant's recordings (Mobilise-D lab example HA/002) and checked,
+unchanged, on the others (the MS participant and the Oxford neck-pouch sessions): ``benchmarks/bench_real_gait.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from walkmon.errors import InvalidInputError
+
+__all__ = [
+    "ACTIVITIES",
+    "DEFAULT_ACTIVITY_SETTINGS",
+    "ActivitySettings",
+    "Bout",
+    "Segmentation",
+    "TrunkSignals",
+    "Turn",
+    "bouts_from_steps",
+    "detect_steps",
+    "detect_turns",
+    "gravity_direction",
+    "segment",
+    "signals_from_angles",
+    "signals_from_imu",
+]
+
+ACTIVITIES = ("standing", "walking", "turning", "unknown")
+
+G = 9.80665
+
+
+@dataclass(frozen=True, slots=True)
+class ActivitySettings:
+    """Settings of the segmentation (seconds, Hz, steps/min; see the module text for their role)."""
+
+    rate_hz: float = 50.0
+    window_s: float = 3.0
+    hop_s: float = 0.1
+    step_period_s: tuple[float, float] = (0.3, 1.1)  # 55-200 steps/min
+    min_periodicity: float = 0.4
+    min_rms_acc: float = 0.25  # m/s², vertical acceleration in the gait band
+    min_rms_deg: float = 0.25  # degrees, pitch in the gait band (video)
+    lowpass_factor: float = 1.6
+    min_step_fraction: float = 0.6
+    max_break_s: float = 3.0
+    min_steps: int = 4
+    pause_factor: float = 1.3
+    hurried_factor: float = 1.6
+    turn_edge_deg_s: float = 5.0
+    turn_peak_deg_s: float = 15.0
+    turn_min_deg: float = 45.0
+    turn_duration_s: tuple[float, float] = (0.5, 10.0)
+    still_rms_acc: float = 0.15  # m/s²
+    still_rms_deg: float = 0.15  # degrees
+    still_gyro_deg_s: float = 10.0  # RMS angular rate
+
+    def __post_init__(self) -> None:
+        for name in ("rate_hz", "window_s", "hop_s", "min_periodicity", "lowpass_factor", "max_break_s"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                msg = f"activity setting {name} must be a finite number > 0, got {v}"
+                raise InvalidInputError(msg)
+        if int(self.min_steps) < 2:
+            msg = f"min_steps must be >= 2, got {self.min_steps}"
+            raise InvalidInputError(msg)
+
+
+DEFAULT_ACTIVITY_SETTINGS = ActivitySettings()
+
+
+@dataclass(frozen=True, slots=True)
+class TrunkSignals:
+    """The two signals of the segmentation on a uniform grid: ``t_s`` (N,), ``step`` (N,), ``heading_rate``
+    (N,) deg/s or None, ``tilt_deg`` (N,2) gravity pitch/roll or None; ``kind`` 'imu', 'acc' or 'angles'."""
+
+    t_s: NDArray[np.float64]
+    step: NDArray[np.float64]
+    heading_rate_deg_s: NDArray[np.float64] | None
+    kind: str
+    gyro_norm_deg_s: NDArray[np.float64] | None = None
+    tilt_deg: NDArray[np.float64] | None = None
+
+    @property
+    def rate_hz(self) -> float:
+        return (len(self.t_s) - 1) / max(float(self.t_s[-1] - self.t_s[0]), 1e-9)
+
+
+@dataclass(frozen=True, slots=True)
+class Turn:
+    start_s: float
+    end_s: float
+    angle_deg: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"start_s": round(self.start_s, 3), "end_s": round(self.end_s, 3), "angle_deg": round(self.angle_deg, 1)}
+
+
+@dataclass(frozen=True, slots=True)
+class Bout:
+    """A walking bout: first to last step, its steps' times, cadence from the steps and from the spectrum."""
+
+    start_s: float
+    end_s: float
+    steps_s: tuple[float, ...]
+    cadence_spm: float
+    spectral_cadence_spm: float
+
+    @property
+    def n_steps(self) -> int:
+        return len(self.steps_s)
+
+    @property
+    def duration_s(self) -> float:
+        return self.end_s - self.start_s
+
+
+@dataclass(frozen=True, slots=True)
+class Segmentation:
+    """Bouts, turns, all detected steps, and the activity per ``hop_s`` (``timeline_t_s``, ``activity``)."""
+
+    bouts: tuple[Bout, ...]
+    turns: tuple[Turn, ...]
+    steps_s: NDArray[np.float64]
+    timeline_t_s: NDArray[np.float64]
+    activity: tuple[str, ...]
+    source: str
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def walking_s(self) -> float:
+        return float(sum(b.duration_s for b in self.bouts))
+
+    def activity_at(self, t_s: ArrayLike) -> NDArray[np.str_]:
+        """Activity at arbitrary times (nearest timeline sample)."""
+        tt = np.asarray(t_s, dtype=float)
+        if not self.activity:
+            return np.full(tt.shape, "unknown")
+        idx = np.clip(np.searchsorted(self.timeline_t_s, tt - 0.5 * self._hop()), 0, len(self.activity) - 1)
+        return np.asarray(self.activity)[idx]
+
+    def _hop(self) -> float:
+        return float(self.timeline_t_s[1] - self.timeline_t_s[0]) if len(self.timeline_t_s) > 1 else 0.1
+
+
+# --------------------------------------------------------------------------------------------- filters
+def _butter(x: NDArray[np.float64], fs: float, cutoff: float | tuple[float, float], btype: str) -> NDArray[np.float64]:
+    from scipy import signal
+
+    nyq = 0.5 * fs
+    if btype == "band":
+        lo, hi = cutoff  # type: ignore[misc]
+        hi = min(hi, 0.9 * nyq)
+        sos = signal.butter(2, (lo, hi), btype="band", fs=fs, output="sos")
+    else:
+        c = min(float(cutoff), 0.9 * nyq)  # type: ignore[arg-type]
+        sos = signal.butter(2, c, btype="low" if btype == "low" else "high", fs=fs, output="sos")
+    if len(x) < 16:
+        return x.copy()
+    return signal.sosfiltfilt(sos, x, axis=0)
+
+
+def _resample(t: NDArray[np.float64], x: NDArray[np.float64], rate_hz: float) -> tuple[NDArray, NDArray]:
+    n = int(math.floor((t[-1] - t[0]) * rate_hz)) + 1
+    grid = t[0] + np.arange(n) / rate_hz
+    x2 = x.reshape(len(t), -1)
+    out = np.column_stack([np.interp(grid, t, x2[:, k]) for k in range(x2.shape[1])])
+    return grid, out.reshape((n, *x.shape[1:]))
+
+
+def _check(t: ArrayLike, *arrays: ArrayLike) -> NDArray[np.float64]:
+    tt = np.asarray(t, dtype=float)
+    if tt.ndim != 1 or tt.size < 10:
+        msg = f"need at least 10 samples, got {tt.size}"
+        raise InvalidInputError(msg)
+    if np.any(np.diff(tt) <= 0) or not np.all(np.isfinite(tt)):
+        msg = "times must be finite and strictly increasing"
+        raise InvalidInputError(msg)
+    for a in arrays:
+        arr = np.asarray(a, dtype=float)
+        if arr.shape[0] != tt.size or not np.all(np.isfinite(arr)):
+            msg = f"signals must be finite with one row per time stamp ({tt.size}), got shape {arr.shape}"
+            raise InvalidInputError(msg)
+    return tt
+
+
+def gravity_direction(acc: NDArray[np.float64], fs: float, cutoff_hz: float = 0.25) -> NDArray[np.float64]:
+    """Unit vector of the low-passed specific force (points up, away from the ground) per sample (N,3)."""
+    g = _butter(np.asarray(acc, dtype=float), fs, cutoff_hz, "low")
+    return g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
+
+
+def signals_from_imu(
+    t_s: ArrayLike,
+    acc_m_s2: ArrayLike,
+    gyro_rad_s: ArrayLike | None = None,
+    settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS,
+) -> TrunkSignals:
+    """Trunk signals of an IMU (gyro + acc) or an accelerometer alone (``gyro_rad_s`` None).
+
+    Works in the sensor's own axes: the gravity direction comes from the low-passed accelerometer, so no
+    mounting orientation is needed. Pitch/roll (tilt) are those of gravity in the sensor frame.
+    """
+    t = _check(t_s, acc_m_s2, *(() if gyro_rad_s is None else (gyro_rad_s,)))
+    acc = np.asarray(acc_m_s2, dtype=float)
+    gyr = None if gyro_rad_s is None else np.asarray(gyro_rad_s, dtype=float)
+    grid, acc_u = _resample(t, acc, settings.rate_hz)
+    fs = settings.rate_hz
+    up = gravity_direction(acc_u, fs)
+    vertical = np.einsum("ij,ij->i", acc_u, up) - G
+    heading = gnorm = None
+    if gyr is not None:
+        _, gyr_u = _resample(t, gyr, fs)
+        heading = np.degrees(np.einsum("ij,ij->i", gyr_u, up))
+        gnorm = np.degrees(np.linalg.norm(gyr_u, axis=1))
+    tilt = np.degrees(np.column_stack([np.arcsin(np.clip(up[:, 2], -1, 1)), np.arcsin(np.clip(up[:, 0], -1, 1))]))
+    return TrunkSignals(grid, vertical, heading, "imu" if gyr is not None else "acc", gnorm, tilt)
+
+
+def signals_from_angles(
+    t_s: ArrayLike, angles_deg: ArrayLike, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS
+) -> TrunkSignals:
+    """Trunk signals of a camera's (pitch, yaw, roll) series in degrees: pitch is the step signal, the yaw
+    rate the heading rate."""
+    t = _check(t_s, angles_deg)
+    a = np.asarray(angles_deg, dtype=float)
+    grid, a_u = _resample(t, a, settings.rate_hz)
+    yaw = _butter(np.degrees(np.unwrap(np.radians(a_u[:, 1]))), settings.rate_hz, 3.0, "low")  # +-180 wraps
+    heading = np.gradient(yaw, 1.0 / settings.rate_hz)
+    rate = np.degrees(np.linalg.norm(np.gradient(np.radians(a_u), 1.0 / settings.rate_hz, axis=0), axis=1))
+    # a posture change mid-walk (bending down by 15-20 deg within a second) would swamp the 1-2 deg step rhythm
+    # of pitch: take the rhythm about the pitch's 1 s running median (one step or more at >= 60 steps/min)
+    from scipy.ndimage import median_filter
+
+    step = a_u[:, 0] - median_filter(a_u[:, 0], size=max(3, int(settings.rate_hz)), mode="nearest")
+    return TrunkSignals(grid, step, heading, "angles", rate, None)
+
+
+# --------------------------------------------------------------------------------------------- gait windows
+def _windowed_gait(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """Per hop: centre times, band RMS, periodicity (max normalised autocorrelation at a step or stride lag)
+    and the step period in s (NaN where no rhythm)."""
+    fs = s.rate_hz
+    x = _butter(sig.step, fs, (0.4, 4.0), "band")
+    n = len(x)
+    w = int(round(s.window_s * fs))
+    hop = max(1, int(round(s.hop_s * fs)))
+    lag_lo = int(round(s.step_period_s[0] * fs))
+    lag_hi = int(round(s.step_period_s[1] * fs))
+    centres = np.arange(0, n, hop)
+    rms = np.zeros(len(centres))
+    per = np.zeros(len(centres))
+    period = np.full(len(centres), np.nan)
+    for j, c in enumerate(centres):
+        i0, i1 = max(0, c - w // 2), min(n, c + w // 2)
+        seg = x[i0:i1]
+        if len(seg) < 2 * lag_hi // 2 + 4:
+            continue
+        seg = seg - seg.mean()
+        rms[j] = float(np.sqrt(np.mean(seg * seg)))
+        e = float(np.dot(seg, seg))
+        if e <= 0:
+            continue
+        ac = np.correlate(seg, seg, mode="full")[len(seg) - 1 :]
+        # unbiased normalisation: each lag's product sum over its overlap
+        overlap = len(seg) - np.arange(len(ac))
+        ac = ac / e * len(seg) / np.maximum(overlap, 1)
+        hi = min(2 * lag_hi, len(ac) - 1)
+        if hi <= lag_lo:
+            continue
+        per[j], period[j] = _step_lag(ac, lag_lo, hi, fs)
+    return sig.t_s[centres], rms, per, period
+
+
+def _step_lag(ac: NDArray[np.float64], lag_lo: int, lag_hi: int, fs: float) -> tuple[float, float]:
+    """(periodicity, step period in s) from a normalised autocorrelation.
+
+    The strongest lag in [step minimum, stride maximum] is a step, a stride or two strides; it is halved while
+    half of it is itself a positively correlated local maximum (steps alternate, so half a stride is a step
+    whenever the two steps look alike at all; half a step is anti-correlated). An asymmetric gait, whose
+    stride lag dominates, thus still gives the step period.
+    """
+    k = int(np.argmax(ac[lag_lo : lag_hi + 1])) + lag_lo
+    r = float(ac[k])
+    while k // 2 >= lag_lo * 0.9:
+        half = k / 2.0
+        a, b = max(1, int(half * 0.85)), min(len(ac) - 2, int(math.ceil(half * 1.15)))
+        if b <= a:
+            break
+        m = int(np.argmax(ac[a : b + 1])) + a
+        if ac[m] > max(0.3, 0.4 * ac[k]) and ac[m] >= ac[m - 1] and ac[m] >= ac[m + 1]:
+            k = m
+        else:
+            break
+    return r, k / fs
+
+
+def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """Index ranges [i0, i1) of the True runs."""
+    m = np.concatenate([[False], mask.astype(bool), [False]])
+    d = np.diff(m.astype(int))
+    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1), strict=True))
+
+
+def detect_steps(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> NDArray[np.float64]:
+    """Times of the steps (one maximum of the low-passed step signal per step) inside gait candidate regions."""
+    return _detect(sig, settings)[0]
+
+
+def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64], NDArray, NDArray]:
+    from scipy.signal import find_peaks
+
+    fs = s.rate_hz
+    tc, rms, per, period = _windowed_gait(sig, s)
+    min_rms = s.min_rms_deg if sig.kind == "angles" else s.min_rms_acc
+    gait = (per >= s.min_periodicity) & (rms >= min_rms) & np.isfinite(period)
+    steps: list[float] = []
+    hop = float(tc[1] - tc[0]) if len(tc) > 1 else s.hop_s
+    for j0, j1 in _runs(gait):
+        t0 = tc[j0] - 0.5 * s.window_s
+        t1 = tc[j1 - 1] + 0.5 * s.window_s
+        i0 = max(0, int(np.searchsorted(sig.t_s, t0)))
+        i1 = min(len(sig.t_s), int(np.searchsorted(sig.t_s, t1)))
+        if i1 - i0 < int(fs):
+            continue
+        p = float(np.nanmedian(period[j0:j1]))
+        f = 1.0 / p
+        y = _butter(sig.step[i0:i1] - np.mean(sig.step[i0:i1]), fs, (0.25, s.lowpass_factor * f), "band")
+        amp = np.sqrt(np.mean(y * y))
+        pk, _ = find_peaks(y, distance=max(1, int(s.min_step_fraction * p * fs)), prominence=0.5 * amp)
+        for k in pk:
+            tk = float(sig.t_s[i0 + k])
+            # keep peaks inside the candidate run proper (the window half-width at the edges is context)
+            if tc[j0] - 0.5 * s.window_s + 0.25 * p <= tk <= tc[j1 - 1] + 0.5 * s.window_s - 0.25 * p:
+                steps.append(tk)
+    del hop
+    st = np.unique(np.round(np.asarray(steps, dtype=float), 6))
+    # two regions may overlap at their edges: merge steps closer than the shortest step
+    if st.size > 1:
+        keep = np.concatenate([[True], np.diff(st) >= s.step_period_s[0]])
+        st = st[keep]
+    return st, tc, gait
+
+
+def bouts_from_steps(
+    steps_s: ArrayLike, sig: TrunkSignals | None = None, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS
+) -> tuple[Bout, ...]:
+    """Walking bouts (>= ``min_steps`` steps, breaks shorter than ``max_break_s`` joined), with cadences."""
+    st = np.asarray(steps_s, dtype=float)
+    if st.size == 0:
+        return ()
+    breaks = np.flatnonzero(np.diff(st) > settings.max_break_s)
+    groups = np.split(st, breaks + 1)
+    out = []
+    for g in groups:
+        g = _trim_edges(g)
+        if g.size < settings.min_steps:
+            continue
+        out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence_from_steps(g, settings),
+                        _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
+    return tuple(out)
+
+
+def _trim_edges(g: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Drop leading/trailing steps of gait initiation/termination: a first or last step interval shorter than
+    0.6 x the bout's median (a weight shift before the first step, a closing half step)."""
+    while g.size >= 3:
+        d = np.diff(g)
+        med = float(np.median(d))
+        if d[0] < 0.6 * med:
+            g = g[1:]
+        elif d[-1] < 0.6 * med:
+            g = g[:-1]
+        else:
+            break
+    return g
+
+
+def cadence_from_steps(steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> float:
+    """Cadence of a bout as Mobilise-D reports it: the mean over strides (two consecutive steps) of
+    120 / stride duration, strides spanning a pause (longer than ``pause_factor`` x the median stride) left
+    out, as are strides shorter than the median / ``hurried_factor`` (a hurried first or last stride of gait
+    initiation/termination). Falls back to 60 / step duration with fewer than 3 steps."""
+    st = np.asarray(steps_s, dtype=float)
+    if st.size < 2:
+        return float("nan")
+    if st.size < 3:
+        return float(60.0 / (st[1] - st[0]))
+    stride = st[2:] - st[:-2]
+    med = np.median(stride)
+    stride = stride[(stride <= settings.pause_factor * med) & (stride >= med / settings.hurried_factor)]
+    return float(np.mean(120.0 / stride)) if stride.size else float("nan")
+
+
+def _spectral_cadence(sig: TrunkSignals | None, t0: float, t1: float, s: ActivitySettings) -> float:
+    if sig is None:
+        return float("nan")
+    from walkmon.gait.spectrum import refined_peak
+
+    m = (sig.t_s >= t0) & (sig.t_s <= t1)
+    if m.sum() < 2 * s.rate_hz:
+        return float("nan")
+    x = sig.step[m] - sig.step[m].mean()
+    lo, hi = 60.0 / (60.0 / s.step_period_s[0]), 60.0 / (60.0 / s.step_period_s[1])
+    peak = refined_peak(x, s.rate_hz, (1.0 / hi, 1.0 / lo), pad_factor=8)
+    return 60.0 * float(peak.frequency_hz)
+
+
+def detect_turns(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> tuple[Turn, ...]:
+    """Turns from the heading rate (El-Gohary et al. 2013 thresholds); () without a heading rate."""
+    if sig.heading_rate_deg_s is None:
+        return ()
+    s = settings
+    fs = s.rate_hz
+    h = _butter(sig.heading_rate_deg_s - np.median(sig.heading_rate_deg_s), fs, 1.5, "low")
+    out = []
+    for sign in (1.0, -1.0):
+        for i0, i1 in _runs(sign * h > s.turn_edge_deg_s):
+            seg = h[i0:i1]
+            dur = (i1 - i0) / fs
+            angle = float(np.sum(seg) / fs)
+            if (np.max(np.abs(seg)) >= s.turn_peak_deg_s and abs(angle) >= s.turn_min_deg
+                    and s.turn_duration_s[0] <= dur <= s.turn_duration_s[1]):
+                out.append(Turn(float(sig.t_s[i0]), float(sig.t_s[i1 - 1]), angle))
+    return tuple(sorted(out, key=lambda u: u.start_s))
+
+
+def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> Segmentation:
+    """Bouts, turns, steps and the activity timeline of one recording (see the module text)."""
+    s = settings
+    steps, tc, gait = _detect(sig, s)
+    bouts = bouts_from_steps(steps, sig, s)
+    turns = detect_turns(sig, s)
+    grid = np.arange(sig.t_s[0], sig.t_s[-1] + 1e-9, s.hop_s)
+    act = np.full(grid.shape, "unknown", dtype=object)
+    # still: low step-signal RMS (and low angular rate with a gyro) over 1 s
+    fs = s.rate_hz
+    x = _butter(sig.step, fs, (0.4, 4.0), "band")
+    half = int(0.5 * fs)
+    csum = np.concatenate([[0.0], np.cumsum(x * x)])
+    idx = np.clip(np.searchsorted(sig.t_s, grid), 0, len(x) - 1)
+    lo = np.clip(idx - half, 0, len(x))
+    hi = np.clip(idx + half, 0, len(x))
+    rms = np.sqrt((csum[hi] - csum[lo]) / np.maximum(hi - lo, 1))
+    still = rms < (s.still_rms_deg if sig.kind == "angles" else s.still_rms_acc)
+    if sig.gyro_norm_deg_s is not None:
+        g2 = np.concatenate([[0.0], np.cumsum(sig.gyro_norm_deg_s ** 2)])
+        grms = np.sqrt((g2[hi] - g2[lo]) / np.maximum(hi - lo, 1))
+        still &= grms < s.still_gyro_deg_s
+    act[still] = "standing"
+    for b in bouts:
+        act[(grid >= b.start_s) & (grid <= b.end_s)] = "walking"
+    for u in turns:
+        act[(grid >= u.start_s) & (grid <= u.end_s)] = "turning"
+    notes = []
+    if sig.heading_rate_deg_s is None:
+        notes.append("no heading (accelerometer only): turns not detected, no yaw")
+    return Segmentation(tuple(bouts), turns, steps, grid, tuple(str(a) for a in act), sig.kind, tuple(notes))

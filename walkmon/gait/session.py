@@ -1,0 +1,525 @@
+"""A whole recording's gait analysis: activity timeline, walking bouts, posture segments, summary.
+
+:func:`analyze_session` is what ``walkmon analyze`` and ``walkmon indicators`` run in walkmon mode:
+
+1. **Activity** (:mod:`walkmon.gait.activity`): standing / walking / turning / unknown, steps and walking
+   bouts, from the IMU when there is one (vertical acceleration, gyro heading rate), else from the angles
+   (pitch rhythm, yaw rate).
+2. **Upright reference**, in this order: the first standing phase (>= ``min_standing_s``) anywhere in the
+   recording, gravity-referenced when an IMU gave absolute pitch/roll; without a standing phase, gravity itself
+   (IMU: the sensor is then assumed to sit level on the trunk); else the first frame. ``upright_reference``
+   in the output says which.
+3. **Posture segments**: each bout minus its turns (and ``turn_margin_s`` around them) is split at change
+   points of the slow (2 s mean) pitch or roll: binary segmentation, a split kept when the two sides differ by
+   >= ``change_pitch_deg`` / ``change_roll_deg`` and both last >= ``min_segment_s``.
+4. **Indicators per segment**: the paper's swing and inclination per axis (:func:`walkmon.indicators.analyze_gait`
+   on the segment, no standing search, inclinations from the upright reference), cadence from the detected
+   steps (the spectral peak kept as ``spectral_cadence_spm``), alternating-step asymmetry from the detected steps
+   (IMU) or the pitch cycles (video), then :func:`walkmon.posture.classify` (the one classifier).
+5. **Bouts** aggregate their segments; the **summary** is the duration-weighted aggregate over walking bouts
+   only: cadence, indicators, time per posture label and the dominant label with its share.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from walkmon.consts import AXES
+from walkmon.gait.activity import (
+    DEFAULT_ACTIVITY_SETTINGS,
+    ActivitySettings,
+    Segmentation,
+    TrunkSignals,
+    cadence_from_steps,
+    segment,
+    signals_from_angles,
+    signals_from_imu,
+)
+from walkmon.gait.indicators import (
+    DEFAULT_INDICATOR_SETTINGS,
+    AxisIndicators,
+    Classification,
+    Indicators,
+    IndicatorSettings,
+    IndicatorStatus,
+    analyze_gait,
+)
+
+__all__ = [
+    "DEFAULT_SESSION_SETTINGS",
+    "ImuInput",
+    "SessionAnalysis",
+    "SessionSettings",
+    "analyze_session",
+    "change_points",
+    "heading_free_angles",
+    "span_indicators",
+    "timeline_rows",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class SessionSettings:
+    min_standing_s: float = 1.5
+    turn_margin_s: float = 0.5
+    min_segment_s: float = 4.0
+    min_piece_s: float = 3.0
+    change_pitch_deg: float = 4.0
+    change_roll_deg: float = 3.0
+    smooth_s: float = 2.0
+    still_tilt_deg: float = 20.0
+    max_drift_deg: float = 8.0
+
+
+DEFAULT_SESSION_SETTINGS = SessionSettings()
+
+
+@dataclass(frozen=True, slots=True)
+class ImuInput:
+    """Raw IMU samples on the angles' time base: ``t_s`` (N,), ``acc_m_s2`` (N,3), ``gyro_rad_s`` (N,3) or None."""
+
+    t_s: NDArray[np.float64]
+    acc_m_s2: NDArray[np.float64]
+    gyro_rad_s: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class SessionAnalysis:
+    indicators: Indicators  # top level = summary over walking bouts; .session holds bouts, segments, ...
+    segmentation: Segmentation
+    reference_deg: NDArray[np.float64]
+    reference_source: str
+    segments: tuple[dict[str, Any], ...]
+    timeline: tuple[tuple[float, str, str, float, float], ...]
+
+
+def _num(v: float, nd: int = 4) -> float | None:
+    v = float(v)
+    return round(v, nd) if math.isfinite(v) else None
+
+
+def heading_free_angles(
+    t_s: ArrayLike, angles_deg: NDArray[np.float64], upright_deg: ArrayLike
+) -> NDArray[np.float64]:
+    """(pitch, yaw, roll) whose slow part (posture) is the trunk's tilt relative to the upright pose.
+
+    Start-relative Euler angles mix pitch and roll once the wearer has turned (after a 180 deg turn a forward
+    lean reads backward in them). The tilt is taken from the direction the upright pose's vertical has at each
+    frame (``M(t)^T M(upright) e_y``, ``M`` the start-relative orientation): it does not depend on heading.
+    Only the slow difference (2.5 s mean) between tilt and Euler angles is applied, so the gait oscillation (the
+    paper's swings, defined on the camera's Euler angles) is kept as measured. ``upright_deg``: the start-relative
+    angles of the upright pose.
+    """
+    from walkmon.consts import gravity_angles_deg_from_gravity, rotation_from_angles_deg
+
+    a = np.asarray(angles_deg, dtype=float)
+    u = np.asarray(upright_deg, dtype=float).reshape(3)
+    m = rotation_from_angles_deg(a[:, 0], a[:, 1], a[:, 2])
+    ms = rotation_from_angles_deg(u[0], u[1], u[2])
+    g = np.einsum("nji,j->ni", m, ms @ np.array([0.0, 1.0, 0.0]))
+    tilt = gravity_angles_deg_from_gravity(g)
+    return slow_offset(t_s, a, np.column_stack([tilt[:, 0], a[:, 1], tilt[:, 1]]))
+
+
+def slow_offset(t_s: ArrayLike, raw: NDArray[np.float64], target: NDArray[np.float64], span_s: float = 2.5) -> NDArray:
+    """``raw`` plus the slow (``span_s`` centred mean) part of ``target - raw``."""
+    t = np.asarray(t_s, dtype=float)
+    d = np.asarray(target, dtype=float) - raw
+    if t.size < 3:
+        return raw + d
+    fs = (t.size - 1) / max(float(t[-1] - t[0]), 1e-9)
+    w = max(1, int(round(span_s * fs)))
+    kern = np.ones(w) / w
+    sm = np.column_stack([np.convolve(np.pad(d[:, k], (w // 2, w - 1 - w // 2), mode="edge"), kern, "valid")
+                          for k in range(d.shape[1])])
+    return raw + sm
+
+
+def _upright(
+    t: NDArray, a: NDArray, seg: Segmentation, abs_deg: NDArray | None, s: SessionSettings
+) -> tuple[NDArray[np.float64], str, tuple[float, float] | None]:
+    """Upright (pitch, yaw, roll) reference in the angles' frame, how it was found, and the standing phase."""
+    act = np.asarray(seg.activity)
+    hop = float(seg.timeline_t_s[1] - seg.timeline_t_s[0]) if len(seg.timeline_t_s) > 1 else 0.1
+    runs = _runs(act == "standing")
+    has_abs = abs_deg is not None and np.isfinite(abs_deg).all(axis=1).mean() > 0.5
+    for i0, i1 in runs:
+        if (i1 - i0) * hop >= s.min_standing_s:
+            t0, t1 = float(seg.timeline_t_s[i0]), float(seg.timeline_t_s[i1 - 1])
+            m = (t >= t0) & (t <= t1)
+            if m.sum() >= 3:
+                ref = np.median(a[m], axis=0)
+                where = f"first standing phase {t0:.1f}-{t1:.1f} s"
+                if has_abs:
+                    return ref, where + " (IMU gravity)", (t0, t1)
+                return ref, where, (t0, t1)
+    if has_abs:
+        assert abs_deg is not None  # has_abs
+        ok = np.isfinite(abs_deg).all(axis=1)
+        off = np.median(a[ok][:, [0, 2]] - abs_deg[ok], axis=0)
+        return np.array([off[0], 0.0, off[1]]), "gravity (IMU; no standing phase: the sensor is assumed level)", None
+    return np.zeros(3), "first frame (no standing phase and no IMU: assumed upright)", None
+
+
+def _remove_drift(
+    t: NDArray, a: NDArray, seg: Segmentation, first: tuple[float, float], s: SessionSettings
+) -> tuple[NDArray, NDArray | None]:
+    """Video angles drift: when the wearer stands again later (the last standing phase >= ``min_standing_s``,
+    within ``max_drift_deg`` of the first), the pitch/roll difference between the two stances is drift; it is
+    removed along a straight line between them (held constant after). Returns the angles and the drift."""
+    act = np.asarray(seg.activity)
+    hop = float(seg.timeline_t_s[1] - seg.timeline_t_s[0]) if len(seg.timeline_t_s) > 1 else 0.1
+    runs = [(i0, i1) for i0, i1 in _runs(act == "standing") if (i1 - i0) * hop >= s.min_standing_s]
+    if not runs:
+        return a, None
+    i0, i1 = runs[-1]
+    t0, t1 = float(seg.timeline_t_s[i0]), float(seg.timeline_t_s[i1 - 1])
+    if t0 <= first[1]:
+        return a, None
+    m0 = (t >= first[0]) & (t <= first[1])
+    m1 = (t >= t0) & (t <= t1)
+    if m0.sum() < 3 or m1.sum() < 3:
+        return a, None
+    d = np.median(a[m1][:, [0, 2]], axis=0) - np.median(a[m0][:, [0, 2]], axis=0)
+    if np.max(np.abs(d)) > s.max_drift_deg:
+        return a, None
+    ta, tb = 0.5 * (first[0] + first[1]), 0.5 * (t0 + t1)
+    w = np.clip((t - ta) / (tb - ta), 0.0, 1.0)
+    out = a.copy()
+    out[:, 0] -= w * d[0]
+    out[:, 2] -= w * d[1]
+    return out, d
+
+
+def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
+    m = np.concatenate([[False], np.asarray(mask, bool), [False]]).astype(int)
+    d = np.diff(m)
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(), strict=True))
+
+
+def _pieces(bout: Any, turns: tuple, s: SessionSettings) -> list[tuple[float, float]]:
+    """The bout minus its turns (with margins), pieces of at least ``min_piece_s``."""
+    pieces = [(bout.start_s, bout.end_s)]
+    for u in turns:
+        a, b = u.start_s - s.turn_margin_s, u.end_s + s.turn_margin_s
+        nxt = []
+        for p0, p1 in pieces:
+            if b <= p0 or a >= p1:
+                nxt.append((p0, p1))
+                continue
+            if a > p0:
+                nxt.append((p0, a))
+            if b < p1:
+                nxt.append((b, p1))
+        pieces = nxt
+    return [(p0, p1) for p0, p1 in pieces if p1 - p0 >= s.min_piece_s]
+
+
+def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> list[float]:
+    """Split times of a piece (binary segmentation of the slow pitch/roll)."""
+    if t.size < 4:
+        return []
+    fs = (t.size - 1) / max(t[-1] - t[0], 1e-9)
+    w = max(1, int(round(s.smooth_s * fs)))
+    kern = np.ones(w) / w
+    slow = np.column_stack([np.convolve(np.pad(a[:, k], (w // 2, w - 1 - w // 2), mode="edge"), kern, "valid")
+                            for k in (0, 2)])
+    limits = np.array([s.change_pitch_deg, s.change_roll_deg])
+    out: list[float] = []
+
+    def split(i0: int, i1: int) -> None:
+        n_min = int(s.min_segment_s * fs)
+        if i1 - i0 < 2 * n_min:
+            return
+        best, best_k = 0.0, -1
+        for k in range(i0 + n_min, i1 - n_min, max(1, int(0.1 * fs))):
+            d = np.abs(np.median(slow[i0:k], axis=0) - np.median(slow[k:i1], axis=0)) / limits
+            score = float(d.max())
+            if score > best:
+                best, best_k = score, k
+        if best >= 1.0:
+            out.append(float(t[best_k]))
+            split(i0, best_k)
+            split(best_k, i1)
+
+    split(0, t.size)
+    return sorted(out)
+
+
+def _steps_asymmetry(steps: NDArray[np.float64]) -> float:
+    """Step time ratio of alternating detected steps (>= 1; NaN with fewer than 5 steps)."""
+    d = np.diff(steps)
+    if d.size < 4:
+        return float("nan")
+    med = np.median(d)
+    if np.any(d > 1.6 * med):  # a pause breaks the alternation: use the longest regular run
+        return float("nan")
+    a, b = float(d[0::2].mean()), float(d[1::2].mean())
+    return max(a, b) / min(a, b)
+
+
+def span_indicators(
+    t: NDArray, a: NDArray, t0: float, t1: float, ref: NDArray, sig_steps: NDArray, kind: str,
+    settings: IndicatorSettings = DEFAULT_INDICATOR_SETTINGS, baseline: Mapping[str, Any] | None = None,
+) -> tuple[Indicators, dict[str, Any]]:
+    """Indicators and classification of the walking span [t0, t1] of heading-free angles ``a`` (upright =
+    ``ref``): the paper's swing/inclination, cadence from the steps in the span, asymmetry, and the one
+    classifier (:func:`walkmon.gait.posture.classify`). Used for every offline posture segment and for every live
+    window (:mod:`walkmon.gait.live`), so both label a walk with the same function, thresholds and reasons."""
+    from walkmon.gait.posture import classify
+
+    m = (t >= t0) & (t <= t1)
+    st = sig_steps[(sig_steps >= t0) & (sig_steps <= t1)]
+    ind = analyze_gait(t[m], a[m], replace(settings, find_standing=False, min_walking_s=2.0),
+                       reference_deg=ref).indicators
+    spectral = ind.cadence_spm
+    cadence = cadence_from_steps(st) if st.size >= 3 else spectral
+    asym = dict(ind.asymmetry)
+    if kind != "angles":  # detected steps of the IMU: their alternation is the better evidence
+        r = _steps_asymmetry(st)
+        asym["step_time_ratio"] = r
+        asym["step_time_asymmetry_pct"] = 100.0 * 2 * (r - 1) / (r + 1) if math.isfinite(r) else float("nan")
+        asym["n_steps"] = float(st.size)
+    ind = replace(ind, cadence_spm=float(cadence), asymmetry=asym)
+    if kind == "acc":
+        # An accelerometer alone sees no turns (their centripetal acceleration tilts the low-passed "gravity") and
+        # no swing (gravity angles are low-passed): its inclinations are indicative only, not a posture label.
+        ind = ind.with_classification(Classification("unclassified", (
+            "accelerometer only: no gyroscope to exclude turns or measure swings, so no posture label "
+            f"(pitch {ind.axes['pitch'].inclination_mean:.1f} deg, roll {ind.axes['roll'].inclination_mean:.1f} deg "
+            "from gravity, indicative)",)))
+    else:
+        ind = ind.with_classification(classify(ind.to_dict(), baseline))
+    doc = {
+        "start_s": _num(t0, 3), "end_s": _num(t1, 3), "activity": "walking", "n_steps": int(st.size),
+        "cadence_spm": _num(cadence, 2), "spectral_cadence_spm": _num(spectral, 2),
+        "axes": {ax: ind.axes[ax].to_dict() for ax in AXES},
+        "asymmetry": {k: _num(v) for k, v in asym.items()},
+        "label": ind.classification.label, "reasons": list(ind.classification.reasons),
+        "status": ind.status.value,
+    }
+    return ind, doc
+
+
+def _weighted_axes(items: list[tuple[float, Indicators]]) -> dict[str, AxisIndicators]:
+    out = {}
+    for ax in AXES:
+        vals = [(w, i.axes[ax]) for w, i in items if i.status is IndicatorStatus.OK]
+        if not vals:
+            out[ax] = AxisIndicators(*(float("nan"),) * 4, n_cycles=0)
+            continue
+        ws = np.array([w for w, _ in vals])
+
+        def avg(name: str, vals=vals, ws=ws) -> float:
+            x = np.array([getattr(v, name) for _, v in vals], float)
+            ok = np.isfinite(x)
+            return float(np.sum(ws[ok] * x[ok]) / np.sum(ws[ok])) if ok.any() else float("nan")
+
+        out[ax] = AxisIndicators(avg("lmax_mean"), avg("lmin_mean"), avg("swing_mean"), avg("inclination_mean"),
+                                 int(sum(v.n_cycles for _, v in vals)), avg("swing_std"), avg("inclination_std"),
+                                 avg("frequency_hz"))
+    return out
+
+
+def analyze_session(
+    t_s: ArrayLike,
+    angles_deg: ArrayLike,
+    *,
+    imu: ImuInput | None = None,
+    abs_angles_deg: ArrayLike | None = None,
+    baseline: Indicators | Mapping[str, Any] | None = None,
+    settings: IndicatorSettings = DEFAULT_INDICATOR_SETTINGS,
+    activity_settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS,
+    session_settings: SessionSettings = DEFAULT_SESSION_SETTINGS,
+    no_yaw: bool = False,
+    reference_deg: ArrayLike | None = None,
+) -> SessionAnalysis:
+    """Timeline, bouts, posture segments and the summary of one recording (see the module text)."""
+    t = np.asarray(t_s, dtype=float)
+    a = np.array(angles_deg, dtype=float)
+    if a.ndim == 2 and a.shape[1] == 3 and a.shape[0] > 1:
+        a[:, 1] = np.degrees(np.unwrap(np.radians(a[:, 1])))  # yaw wraps at +-180 after a U-turn
+    absd = None if abs_angles_deg is None else np.asarray(abs_angles_deg, dtype=float)
+    base = baseline.to_dict() if isinstance(baseline, Indicators) else baseline
+    sig: TrunkSignals
+    if imu is not None:
+        sig = signals_from_imu(imu.t_s, imu.acc_m_s2, imu.gyro_rad_s, activity_settings)
+    else:
+        sig = signals_from_angles(t, a, activity_settings)
+    seg = segment(sig, activity_settings)
+    s = session_settings
+    has_abs = absd is not None and np.isfinite(absd).all(axis=1).mean() > 0.5
+    if reference_deg is not None:
+        ref, ref_source = np.asarray(reference_deg, dtype=float).reshape(3), "given (the live monitor's calibration)"
+        stand = None
+    else:
+        ref, ref_source, stand = _upright(t, a, seg, absd, s)
+    # heading-free inclinations: gravity's pitch/roll with an IMU, else the tilt from the upright pose
+    if has_abs:
+        assert absd is not None  # has_abs
+        ok = np.isfinite(absd).all(axis=1)
+        gp = np.interp(t, t[ok], absd[ok, 0])
+        gr = np.interp(t, t[ok], absd[ok, 1])
+        # the upright pose in gravity angles: the standing phase's, or level
+        up_abs = np.zeros(2)
+        if stand is not None:
+            m = (t >= stand[0]) & (t <= stand[1])
+            up_abs = np.array([np.median(gp[m]), np.median(gr[m])])
+        a = slow_offset(t, a, np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]]))
+        ref_out = up_abs
+    else:
+        a = heading_free_angles(t, a, ref)
+        ref_out = ref[[0, 2]]
+        if stand is not None:
+            a, drift = _remove_drift(t, a, seg, stand, s)
+            if drift is not None:
+                ref_source += f"; drift {drift[0]:+.2f} / {drift[1]:+.2f} deg (pitch / roll) removed up to the last " \
+                              "standing phase"
+    ref_zero = np.zeros(3)
+    seg_docs: list[dict[str, Any]] = []
+    bout_docs: list[dict[str, Any]] = []
+    weighted: list[tuple[float, Indicators]] = []
+    label_time: dict[str, float] = {}
+    for b in seg.bouts:
+        inside = []
+        for p0, p1 in _pieces(b, seg.turns, s):
+            m = (t >= p0) & (t <= p1)
+            cuts = change_points(t[m], a[m], s)
+            edges = [p0, *cuts, p1]
+            for q0, q1 in zip(edges[:-1], edges[1:], strict=True):
+                ind, doc = span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base)
+                if no_yaw:
+                    doc["axes"]["yaw"] = None
+                seg_docs.append(doc)
+                inside.append((q1 - q0, ind))
+                label_time[doc["label"]] = label_time.get(doc["label"], 0.0) + (q1 - q0)
+        weighted += inside
+        axes = _weighted_axes(inside)
+        labels: dict[str, float] = {}
+        for w, i in inside:
+            labels[i.classification.label] = labels.get(i.classification.label, 0.0) + w
+        label = max(labels, key=labels.__getitem__) if labels else "unclassified"
+        reasons = ([f"{lab} over {w:.1f} s of {sum(labels.values()):.1f} s of straight walking" for lab, w in
+                    sorted(labels.items(), key=lambda kv: -kv[1])] if labels else
+                   ["no straight walking of at least "
+                    f"{s.min_piece_s:g} s between turns: not labelled"])
+        bout_docs.append({
+            "start_s": _num(b.start_s, 3), "end_s": _num(b.end_s, 3), "activity": "walking",
+            "n_steps": b.n_steps, "cadence_spm": _num(b.cadence_spm, 2),
+            "spectral_cadence_spm": _num(b.spectral_cadence_spm, 2),
+            "n_turns": sum(1 for u in seg.turns if u.end_s > b.start_s and u.start_s < b.end_s),
+            "axes": {ax: (None if no_yaw and ax == "yaw" else axes[ax].to_dict()) for ax in AXES},
+            "label": label, "reasons": reasons,
+        })
+    walking_s = seg.walking_s
+    cad = [(b.duration_s, b.cadence_spm) for b in seg.bouts if math.isfinite(b.cadence_spm)]
+    cadence = (sum(w * c for w, c in cad) / sum(w for w, _ in cad)) if cad and sum(w for w, _ in cad) > 0 \
+        else float("nan")
+    axes = _weighted_axes(weighted)
+    total_labelled = sum(label_time.values())
+    if label_time:
+        dominant = max(label_time, key=label_time.__getitem__)
+        share = label_time[dominant] / total_labelled
+        dom_reasons = [f"{dominant} over {100 * share:.0f} % of the labelled walking time "
+                       f"({label_time[dominant]:.1f} of {total_labelled:.1f} s)"]
+        longest = max((d for d in seg_docs if d["label"] == dominant),
+                      key=lambda d: (d["end_s"] or 0) - (d["start_s"] or 0))
+        dom_reasons += longest["reasons"]
+        cls = Classification(dominant, tuple(dom_reasons))
+    else:
+        dominant, share = "unclassified", float("nan")
+        why = "no walking bout" if not seg.bouts else "no straight walking segment long enough to measure"
+        cls = Classification("unclassified", (why,))
+    asym = _weighted_asym(weighted)
+    activity = _not_upright_is_unknown(np.asarray(seg.activity, dtype=object), seg.timeline_t_s, t, a, s)
+    seg = replace(seg, activity=tuple(str(v) for v in activity))
+    activity_s = {k: float(np.sum(activity == k)) * activity_settings.hop_s
+                  for k in ("standing", "walking", "turning", "unknown")}
+    rows = timeline_rows(t, a, seg, seg_docs, ref_zero)
+    status = IndicatorStatus.OK if weighted and any(i.status is IndicatorStatus.OK for _, i in weighted) else (
+        IndicatorStatus.NO_GAIT if seg.bouts or t.size > 16 else IndicatorStatus.TOO_SHORT)
+    session = {
+        "upright_reference": {"source": ref_source, "pitch_deg": _num(ref_out[0]), "roll_deg": _num(ref_out[1]),
+                              "frame": "gravity pitch/roll" if has_abs else "start-relative angles"},
+        "input": {"activity_from": {"imu": "IMU (gyroscope + accelerometer)", "acc": "accelerometer only",
+                                    "angles": "camera angles"}[sig.kind],
+                  "notes": list(seg.notes) + (["no yaw: yaw indicators are null"] if no_yaw else [])},
+        "activity_s": {k: _num(v, 2) for k, v in activity_s.items()},
+        "summary": {
+            "cadence_spm": _num(cadence, 2), "walking_s": _num(walking_s, 2), "n_bouts": len(seg.bouts),
+            "n_steps": int(sum(b.n_steps for b in seg.bouts)), "n_turns": len(seg.turns),
+            "posture_time_s": {k: _num(v, 2) for k, v in sorted(label_time.items())},
+            "dominant_label": dominant, "dominant_share": _num(share, 3),
+        },
+        "bouts": bout_docs,
+        "segments": seg_docs,
+        "turns": [u.to_dict() for u in seg.turns],
+    }
+    duration = float(t[-1] - t[0]) if t.size else 0.0
+    first, last = (seg.bouts[0].start_s, seg.bouts[-1].end_s) if seg.bouts else (float("nan"), float("nan"))
+    if no_yaw:
+        axes["yaw"] = AxisIndicators(*(float("nan"),) * 4, n_cycles=0)
+    ind = Indicators(
+        cadence_spm=float(cadence), duration_s=duration, walking_s=walking_s, axes=axes, asymmetry=asym,
+        classification=cls, status=status, mode=settings.mode, walking_interval_s=(first, last),
+        reference_deg={"pitch": float(ref_out[0]), "yaw": 0.0, "roll": float(ref_out[1])}, drift_removed_deg={},
+        session=session,
+    )
+    return SessionAnalysis(ind, seg, ref, ref_source, tuple(seg_docs), rows)
+
+
+def _not_upright_is_unknown(
+    activity: NDArray, grid: NDArray, t: NDArray, a: NDArray, s: SessionSettings
+) -> NDArray:
+    """Still but tilted more than ``still_tilt_deg`` from upright: sitting, lying or bending down, not standing."""
+    if t.size == 0:
+        return activity
+    p = np.interp(grid, t, a[:, 0])
+    r = np.interp(grid, t, a[:, 2])
+    out = activity.copy()
+    out[(out == "standing") & ((np.abs(p) > s.still_tilt_deg) | (np.abs(r) > s.still_tilt_deg))] = "unknown"
+    return out
+
+
+def _weighted_asym(items: list[tuple[float, Indicators]]) -> dict[str, float]:
+    keys = ("step_time_ratio", "step_swing_ratio", "step_time_asymmetry_pct", "swing_asymmetry_pct")
+    out = {}
+    for k in keys:
+        vals = [(w, i.asymmetry.get(k, float("nan"))) for w, i in items]
+        vals = [(w, v) for w, v in vals if v is not None and math.isfinite(v)]
+        out[k] = sum(w * v for w, v in vals) / sum(w for w, _ in vals) if vals else float("nan")
+    return out
+
+
+def timeline_rows(
+    t: NDArray, a: NDArray, seg: Segmentation, seg_docs: list[dict[str, Any]], ref: NDArray,
+    abs_deg: NDArray | None = None, step_s: float = 1.0,
+) -> tuple[tuple[float, str, str, float, float], ...]:
+    """``(t, activity, label, pitch, roll)`` every ``step_s`` from the first sample: pitch and roll relative to
+    the upright reference (1 s means); label only for walking seconds inside a posture segment."""
+    if t.size == 0:
+        return ()
+    grid = np.arange(0.0, float(t[-1] - t[0]) + 1e-9, step_s) + float(t[0])
+    act = seg.activity_at(grid)
+    rows = []
+    for g, ac in zip(grid, act, strict=True):
+        m = (t >= g - 0.5 * step_s) & (t < g + 0.5 * step_s)
+        if m.any():
+            pr = np.mean(a[m][:, [0, 2]], axis=0) - ref[[0, 2]]
+        else:
+            pr = np.array([np.interp(g, t, a[:, 0]) - ref[0], np.interp(g, t, a[:, 2]) - ref[2]])
+        label = ""
+        if ac == "walking":
+            label = "unclassified"
+            for d in seg_docs:
+                if d["start_s"] is not None and d["start_s"] <= g <= d["end_s"]:
+                    label = d["label"]
+                    break
+        rows.append((float(g), str(ac), label, float(pr[0]), float(pr[1])))
+    return tuple(rows)
