@@ -220,7 +220,8 @@ def summarise(rows: list[dict]) -> list[dict[str, Any]]:
             "activity_pct_min": float(np.nanmin(act)),
             "change_points": int(cp.size),
             "change_within_pct": float(100.0 * np.mean(cp <= TARGETS["boundary_s"])) if cp.size else float("nan"),
-            "change_err_max_s": float(cp.max()) if cp.size else float("nan"),
+            "change_err_max_s": float(cp[np.isfinite(cp)].max()) if np.isfinite(cp).any() else float("nan"),
+            "change_missed": int(np.sum(~np.isfinite(cp))),
             "change_false": int(sum(r["change_false"] for r in rs)),
             "labels_pct": 100.0 * lab_right / lab_n if lab_n else float("nan"),
             "labels_n": lab_n,
@@ -235,7 +236,7 @@ def summarise(rows: list[dict]) -> list[dict[str, Any]]:
 
 
 def _summary_lines(summary: list[dict]) -> list[str]:
-    head = ("| source | sessions | activity right % mean (min) | change points within 1.5 s (max err s) | "
+    head = ("| source | sessions | activity right % mean (min) | true change points within 1.5 s | "
             "false change points | labels right % | bouts with cadence within 1 % (median / max err %) | "
             "true bouts found |")
     lines = [head, "|" + "|".join(["---"] * 8) + "|"]
@@ -243,7 +244,7 @@ def _summary_lines(summary: list[dict]) -> list[str]:
         lines.append(
             f"| {s['source']} | {s['sessions']} | {_fmt(s['activity_pct_mean'])} ({_fmt(s['activity_pct_min'])}) | "
             f"{_fmt(s['change_within_pct'], '.0f')} % of {s['change_points']} "
-            f"({'none found' if s['change_err_max_s'] == float('inf') else _fmt(s['change_err_max_s'])}) | "
+            f"(max {_fmt(s['change_err_max_s'])} s over those found, {s['change_missed']} not found) | "
             f"{s['change_false']} | {_fmt(s['labels_pct'], '.0f')} % of {s['labels_n']} | "
             f"{_fmt(s['cadence_within_pct'], '.0f')} % of {s['cadence_bouts']} "
             f"({_fmt(s['cadence_err_median_pct'], '.2f')} / {_fmt(s['cadence_err_max_pct'], '.1f')}) | "
