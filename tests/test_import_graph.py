@@ -1,7 +1,8 @@
 """The layout's rules, read from the source with ``ast`` (every import, module- and function-level):
 
 * no import cycles among walkmon's modules (drivers/ counted as walkmon.drivers, as installed);
-* threads, sockets, SQLite and subprocesses only in walkmon/live/, walkmon/commands/, walkmon/api.py and drivers/;
+* threads, sockets, SQLite and subprocesses only in the service packages (walkmon/live/, walkmon/serve/,
+  walkmon/batching/), walkmon/commands/, walkmon/api.py and drivers/;
 * argparse and printing only in walkmon/commands/;
 * the rotation, imu and gait packages do no I/O: no file, socket, SQLite or subprocess use.
 
@@ -22,8 +23,10 @@ REPO = Path(__file__).resolve().parents[1]
 #: Modules that run threads or talk to sockets, SQLite or other processes.
 CONCURRENCY_AND_IPC = {"threading", "_thread", "sqlite3", "socket", "subprocess", "multiprocessing", "asyncio",
                        "concurrent", "selectors", "socketserver"}
-#: Where those may be imported (path prefixes relative to the repository).
-IPC_ALLOWED = ("walkmon/live/", "walkmon/commands/", "walkmon/api.py", "drivers/")
+#: Where those may be imported (path prefixes relative to the repository): the service packages (the live monitor,
+#: the dashboard's read-only store and HTTP server, Dask batch runs), the commands, the API and the drivers.
+IPC_ALLOWED = ("walkmon/live/", "walkmon/serve/", "walkmon/batching/", "walkmon/commands/", "walkmon/api.py",
+               "drivers/")
 #: The hardware-free, I/O-free packages.
 PURE = ("walkmon/rotation/", "walkmon/imu/", "walkmon/gait/")
 #: Imports that mean I/O in a pure package.

@@ -77,7 +77,7 @@ def _versions() -> dict[str, str]:
     import cv2  # noqa: PLC0415
     import numpy as np  # noqa: PLC0415
 
-    from walkmon import __version__  # noqa: PLC0415
+    from walkmon._version import __version__  # noqa: PLC0415
 
     return {"walkmon_version": __version__, "python_version": sys.version.split()[0],
             "numpy_version": np.__version__, "opencv_version": cv2.__version__}
