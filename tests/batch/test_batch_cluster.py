@@ -22,7 +22,7 @@ from walkmon.batching.tables import BOUT_COLUMNS, SUMMARY_COLUMNS  # noqa: E402
 from walkmon.batching.worker import STATE_DIR  # noqa: E402
 from walkmon.commands.cli import main as cli_main  # noqa: E402
 
-_GENERATED = re.compile(r"generated \(UTC\)</t[hd]>\s*<td>[^<]*</td>")
+_GENERATED = re.compile(r"generated \([^)]*\)</t[hd]>\s*<td>[^<]*</td>")
 
 
 def _kill_when_started(out: Path, name: str, killed: list[int]):  # noqa: ANN202
@@ -152,7 +152,7 @@ def test_outputs_identical_to_walkmon_analyze(first_run, tmp_path: Path, name: s
         if p.name == "report.html":
             a = _without_timestamp(p.read_text(encoding="utf-8"))
             b = _without_timestamp((got / p.name).read_text(encoding="utf-8"))
-            assert "generated (UTC)" not in a or a.count("generated") == b.count("generated")
+            assert "generated (" not in a and "generated (" not in b  # the time stamp row was taken out
             assert a == b
         else:
             assert (got / p.name).read_bytes() == p.read_bytes(), p.name
