@@ -36,8 +36,11 @@ __all__ = [
     "centre_from_rotation",
     "essential_from_pose",
     "essential_ransac",
+    "HomographyFit",
+    "pose_rotation_std_deg",
     "gric",
     "homogeneous_from_normalized",
+    "homography_fit",
     "orientation_candidates_from_essential",
     "refine_relative_pose",
     "rotation_angle_deg",
@@ -351,3 +354,92 @@ def essential_ransac(
     if E is None or E.shape[0] < 3:
         return None, np.zeros(n, dtype=bool)
     return E[:3].copy(), (mask.ravel() > 0) if mask is not None else np.ones(n, dtype=bool)
+
+
+@dataclass(frozen=True, slots=True)
+class HomographyFit:
+    """Result of :func:`homography_fit`: the rotation of the plane-induced homography ``H = R + c n^T / d``
+    nearest the prior, H itself (``q0 ~ H q1``), transfer residuals (px) of every match and the inlier mask."""
+
+    rotation: NDArray[np.float64]
+    homography: NDArray[np.float64]
+    residuals_px: NDArray[np.float64]
+    inliers: NDArray[np.bool_]
+    #: Largest angle between the decomposition's rotations: how ambiguous the plane makes the rotation (a
+    #: plane seen side-on while the camera moves along it admits two rotations ~ baseline/distance apart).
+    ambiguity_deg: float = 0.0
+
+
+def homography_fit(
+    q0: ArrayLike,
+    q1: ArrayLike,
+    focal_px: float,
+    rotation_prior: ArrayLike,
+    *,
+    inlier_px: float = 2.0,
+    method: str = "magsac",
+) -> HomographyFit | None:
+    """Robust plane-induced homography ``q0 ~ H q1`` (OpenCV ``findHomography``, USAC MAGSAC++ by default,
+    or ``"ransac"``) and the rotation of its decomposition nearest ``rotation_prior``; None when it fails.
+
+    A scene dominated by one plane (a wall or door close ahead, the ground) with parallax fits a homography
+    ``H = R + c n^T / d`` exactly, while the essential matrix of a plane is degenerate (a family of (R, c) fit
+    equally well, so its rotation wanders); :func:`gric` with ``model_dim=2, n_params=8`` scores it against
+    the other models. ``cv2.decomposeHomographyMat`` gives up to four (R, t, n); with this module's
+    convention (``H`` maps view-1 points to view 0) its ``R`` is the orientation of view 1 in view 0 directly.
+    """
+    import cv2  # noqa: PLC0415
+
+    a, b = _check_points(q0, q1)
+    n = a.shape[0]
+    if n < 8:
+        return None
+    p0 = np.ascontiguousarray(a[:, :2] / a[:, 2:3])
+    p1 = np.ascontiguousarray(b[:, :2] / b[:, 2:3])
+    flag = cv2.USAC_MAGSAC if method == "magsac" else cv2.RANSAC
+    H, _mask = cv2.findHomography(p1, p0, flag, inlier_px / focal_px, maxIters=500, confidence=0.99)
+    if H is None or not np.all(np.isfinite(H)) or abs(np.linalg.det(H)) < 1e-12:
+        return None
+    H = H / np.cbrt(np.linalg.det(H))  # scale so that det = 1 (the rotation part's)
+    _, Rs, _, _ = cv2.decomposeHomographyMat(H, np.eye(3))
+    cands = [np.asarray(r, dtype=float) for r in Rs]
+    R = select_nearest_rotation(cands, rotation_prior)
+    spread = max((rotation_angle_deg(A.T @ B) for A in cands for B in cands), default=0.0)
+    p = b @ H.T
+    z = np.where(np.abs(p[:, 2]) < 1e-9, 1e-9, p[:, 2])
+    d = p[:, :2] / z[:, None] - p0
+    r = focal_px * np.sqrt(np.sum(d * d, axis=1))
+    return HomographyFit(R, H, r, r < inlier_px, spread)
+
+
+def pose_rotation_std_deg(
+    q0: ArrayLike, q1: ArrayLike, focal_px: float, fit: PoseFit, sigma_px: float, scale_px: float = 1.0
+) -> float:
+    """Standard deviation (deg, worst direction) of an essential fit's rotation from its Gauss-Newton Hessian.
+
+    The Sampson residuals' Jacobian in the fit's five parameters (rotation, baseline direction), Cauchy
+    weights at ``scale_px``, noise ``sigma_px``: ``cov = sigma^2 (J^T W J)^-1``, rotation block. A scene
+    whose tracks lie near one plane, or a baseline too short for the depth, leaves the rotation trading
+    against the baseline: the Hessian is near singular along that valley and this number large.
+    """
+    a, b = _check_points(q0, q1)
+    R, c = fit.rotation, fit.centre
+    eps = 1e-7
+    B = _tangent_basis(c)
+    C = _skew3(c)
+    E0 = C @ R
+    Es = np.empty((6, 3, 3))
+    Es[0] = E0
+    Es[1:4] = E0 + eps * (C @ _GENERATORS @ R)
+    Es[4] = _skew3(c + eps * B[:, 0]) @ R
+    Es[5] = _skew3(c + eps * B[:, 1]) @ R
+    rs = _sampson_batch(Es, a, b)
+    J = ((rs[1:] - rs[0]) / eps).T
+    w = cauchy_weights(focal_px * rs[0], scale_px)
+    Hm = (J * w[:, None]).T @ J
+    try:
+        cov = np.linalg.inv(Hm + 1e-15 * np.eye(5)) * (sigma_px / focal_px) ** 2
+    except np.linalg.LinAlgError:
+        return math.inf
+    ev = np.linalg.eigvalsh(cov[:3, :3])
+    return math.degrees(math.sqrt(max(float(ev[-1]), 0.0)))

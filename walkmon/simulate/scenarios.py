@@ -2,6 +2,7 @@
 
 Each scenario is a normal walk (seeded like every simulated session) plus one difficulty:
 
+``street``          none: the plain street, the baseline the others are compared with
 ``wall``            the street ends in a textured facade the walker stops 3 m in front of (a near plane)
 ``turns``           fast turns of the torso: +90°, -180°, +90° (peak 135-180 °/s), the camera sweeping across
                     the facades at a few metres
@@ -35,7 +36,7 @@ from walkmon.simulate.session import SimulatedSession
 
 __all__ = ["SCENARIOS", "ScenarioSession", "TurningGait", "simulate_scenario"]
 
-SCENARIOS = ("wall", "turns", "movers", "dusk", "night", "fog", "occlusion", "rolling_shutter")
+SCENARIOS = ("street", "wall", "turns", "movers", "dusk", "night", "fog", "occlusion", "rolling_shutter")
 
 #: Turns of the ``turns`` scenarios: (start as a fraction of the walking time, duration s, angle deg).
 _TURNS = ((0.1, 1.0, 90.0), (0.4, 1.5, -180.0), (0.75, 1.0, 90.0))
