@@ -145,6 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--size", default="640x480")
     ap.add_argument("--cache", default=os.environ.get("WALKMON_BENCH_CACHE", "/tmp/walkmon-bench-scenarios"))
     ap.add_argument("--out", default=None, help="results basename (default benchmarks/results/scenarios[-WxH])")
+    ap.add_argument("--render-only", action="store_true", help="render (cache) the clips and stop")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="RotationSettings overrides")
     args = ap.parse_args(argv)
     overrides = {k: type(getattr(RotationSettings(), k))(v) for k, v in (kv.split("=", 1) for kv in args.set)}
@@ -155,12 +156,16 @@ def main(argv: list[str] | None = None) -> int:
     for sc in args.scenarios:
         for seed in range(1, args.seeds + 1):
             d = clip(sc, seed, args.seconds, size, cache)  # type: ignore[arg-type]
+            if args.render_only:
+                continue
             r, fps = run(d, overrides)
             r.update(scenario=sc, seed=seed, fps_cpu=round(fps, 1), meets=meets(r))
             rows.append(r)
             sys.stderr.write(f"{sc} seed {seed}: det {fmt3(r['detrended_rmse_deg'])} raw {fmt3(r['raw_rmse_deg'])} "
                              f"f2f {r['max_frame_error_deg']:.3f} flagged {r['flagged']} {r['flag_reasons']} "
                              f"ok>1 {r['ok_over_1deg']} (raw {r['ok_raw_over_1deg']}) {fps:.0f} fps\n")
+    if args.render_only:
+        return 0
     lines = [
         "# Scenario benchmark (benchmarks/bench_scenarios.py)",
         "",

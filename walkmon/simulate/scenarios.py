@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from walkmon.consts import angles_deg_from_rotation, rot_y
 from walkmon.errors import InvalidInputError
-from walkmon.simulate.render import DEFAULT_RENDER_SETTINGS, RenderSettings
+from walkmon.simulate.render import DEFAULT_RENDER_SETTINGS
 from walkmon.simulate.session import SimulatedSession
 
 __all__ = ["SCENARIOS", "ScenarioSession", "TurningGait", "simulate_scenario"]
