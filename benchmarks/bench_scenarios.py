@@ -53,7 +53,7 @@ def simulator_key() -> str:
 def clip(scenario: str, seed: int, seconds: float, size: tuple[int, int], cache: Path) -> Path:
     w, h = size
     d = cache / f"{scenario}_{seconds:g}s_{w}x{h}_seed{seed}_sim{simulator_key()}"
-    if not (d / "video.mp4").is_file() or not (d / "truth.csv").is_file():
+    if not (d / "meta.json").is_file():  # meta.json is written last: a clip without it was interrupted
         from walkmon.simulate.scenarios import simulate_scenario  # noqa: PLC0415
 
         t0 = time.perf_counter()
@@ -146,6 +146,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", default=os.environ.get("WALKMON_BENCH_CACHE", "/tmp/walkmon-bench-scenarios"))
     ap.add_argument("--out", default=None, help="results basename (default benchmarks/results/scenarios[-WxH])")
     ap.add_argument("--render-only", action="store_true", help="render (cache) the clips and stop")
+    ap.add_argument("--cached-only", action="store_true",
+                    help="evaluate only the clips already rendered (the table says how many seeds each scenario had)")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="RotationSettings overrides")
     args = ap.parse_args(argv)
     overrides = {k: type(getattr(RotationSettings(), k))(v) for k, v in (kv.split("=", 1) for kv in args.set)}
@@ -153,8 +155,12 @@ def main(argv: list[str] | None = None) -> int:
     size = tuple(int(v) for v in args.size.lower().split("x"))
     cache = Path(args.cache)
     rows = []
-    for sc in args.scenarios:
-        for seed in range(1, args.seeds + 1):
+    # seed-major: every scenario's first seed before any scenario's second (an interrupted render covers them all)
+    for seed in range(1, args.seeds + 1):
+        for sc in args.scenarios:
+            d = cache / f"{sc}_{args.seconds:g}s_{size[0]}x{size[1]}_seed{seed}_sim{simulator_key()}"
+            if args.cached_only and not (d / "meta.json").is_file():
+                continue
             d = clip(sc, seed, args.seconds, size, cache)  # type: ignore[arg-type]
             if args.render_only:
                 continue
@@ -166,6 +172,7 @@ def main(argv: list[str] | None = None) -> int:
                              f"ok>1 {r['ok_over_1deg']} (raw {r['ok_raw_over_1deg']}) {fps:.0f} fps\n")
     if args.render_only:
         return 0
+    rows.sort(key=lambda r: (args.scenarios.index(r["scenario"]), r["seed"]))
     lines = [
         "# Scenario benchmark (benchmarks/bench_scenarios.py)",
         "",
@@ -187,13 +194,15 @@ def main(argv: list[str] | None = None) -> int:
                      f"{r['max_frame_error_deg']:.3f} | {why} | {r['ok_over_1deg']} | {r['ok_raw_over_1deg']} | "
                      f"{r['max_raw_error_deg']:.2f} | {r['fps_cpu']:.0f} | {'✓' if r['meets'] else '✗'} |")
     lines += ["", "Summary per scenario (worst over seeds):", "",
-              "| scenario | worst detrended | worst raw | worst f2f (ok) | flagged (mean) | ok>1 (sum) | met |",
-              "|---|---|---|---:|---:|---:|---|"]
+              "| scenario | seeds | worst detrended | worst raw | worst f2f (ok) | flagged (mean) | ok>1 (sum) | met |",
+              "|---|---:|---|---|---:|---:|---:|---|"]
     for sc in args.scenarios:
         rs = [r for r in rows if r["scenario"] == sc]
+        if not rs:
+            continue
         det = np.max([r["detrended_rmse_deg"] for r in rs], axis=0).tolist()
         raw = np.max([r["raw_rmse_deg"] for r in rs], axis=0).tolist()
-        lines.append(f"| {sc} | {fmt3(det)} | {fmt3(raw)} | {max(r['max_frame_error_deg'] for r in rs):.3f} | "
+        lines.append(f"| {sc} | {len(rs)} | {fmt3(det)} | {fmt3(raw)} | {max(r['max_frame_error_deg'] for r in rs):.3f} | "
                      f"{np.mean([r['flagged'] for r in rs]):.1f} | {sum(r['ok_over_1deg'] for r in rs)} | "
                      f"{sum(r['meets'] for r in rs)}/{len(rs)} |")
     text = "\n".join(lines) + "\n"
