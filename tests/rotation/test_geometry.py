@@ -197,3 +197,13 @@ def test_homography_shows_the_two_rotations_of_a_facade_passed_sideways():
     assert min(angle_error_deg(Ri, R) for Ri in Rs) < 0.05
     q0, q1 = _plane_scene(R, [0.0, 0.0, 0.3], [0.0, 0.0, 1.0], 3.0)
     assert geo.homography_fit(q0, q1, FOCAL_PX, np.eye(3), method="ransac").ambiguity_deg < 0.5
+
+
+def test_homography_dlt_matches_opencv_on_clean_matches():
+    R = rotation_from_angles_deg(-1.0, 2.5, 0.4)
+    q0, q1 = _plane_scene(R, [0.1, 0.05, 0.4], [0.1, 0.0, 1.0], 5.0, noise_px=0.1, seed=4)
+    ours = geo.homography_fit(q0, q1, FOCAL_PX, R, method="dlt")
+    ref = geo.homography_fit(q0, q1, FOCAL_PX, R, method="ransac")
+    assert ours is not None and ref is not None
+    assert np.allclose(ours.homography, ref.homography, atol=2e-3)
+    assert angle_error_deg(ours.rotation, R) < 0.2 and np.median(ours.residuals_px) < 0.2

@@ -236,7 +236,8 @@ class FastEngine:
         ``n_params=8``, returned as ``g_hom``) did not separate the cases: at a keyframe's short baselines
         every model fits and GRIC prefers the homography's lower dimension even in an open street.
         """
-        hom = geo.homography_fit(q_kf, q_cur, self._focal, pose.rotation, inlier_px=self.s.inlier_px)
+        hom = geo.homography_fit(q_kf, q_cur, self._focal, pose.rotation, inlier_px=self.s.inlier_px, method="dlt",
+                                 use=mask)
         if hom is None:
             return None
         e_res = float(np.median(np.abs(pose.residuals_px[mask])))
