@@ -73,6 +73,8 @@ class FastEngine:
         self._kf_q = np.zeros((0, 3))  # the tracks' normalised homogeneous coordinates in the keyframe
         self._ids = np.zeros(0, np.int64)  # a number per track, to find the same track in older keyframes
         self._next_id = 0
+        self._rejected = np.zeros((0, 2), np.float32)  # positions of the tracks the last frame rejected
+        self._parallax_deg = 0.0
         # recent keyframes: (orientation, sorted track ids, their normalised coordinates there)
         self._window: deque[tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]] = deque(
             maxlen=max(1, settings.keyframe_window)
@@ -102,10 +104,14 @@ class FastEngine:
             return np.zeros((0, 1, 2), np.float32)
         dist = max(2.0, self._feature_spacing_px / self._sx)
         mask = None
-        if existing.shape[0]:
+        if existing.shape[0] or self._rejected.shape[0]:
             mask = np.full(small.shape, 255, np.uint8)
             for x, y in existing.reshape(-1, 2):
                 cv2.circle(mask, (int(x), int(y)), int(dist), 0, -1)
+            # no new corners where the last frame's outlier tracks were: independently moving people and
+            # vehicles (their tracks fail the camera's motion), which new corners would otherwise pick up again
+            for x, y in self._rejected:
+                cv2.circle(mask, (int(x), int(y)), int(2 * dist), 0, -1)
         found = cv2.goodFeaturesToTrack(small, want, 0.01, dist, mask=mask, blockSize=5)
         if found is None:
             return np.zeros((0, 1, 2), np.float32)
@@ -115,6 +121,7 @@ class FastEngine:
         """Tracking broke (cap, blur, too few inliers): forget tracks and keyframes, keep the orientation."""
         self._pts = np.zeros((0, 1, 2), np.float32)
         self._ids = np.zeros(0, np.int64)
+        self._rejected = np.zeros((0, 2), np.float32)
         self._window.clear()
 
     def _keep(self, mask: NDArray[np.bool_]) -> None:
@@ -347,6 +354,8 @@ class FastEngine:
             iterations=3,
         )
         fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.OK)
+        # the rotation-only fit's median residual as an angle: the parallax since the keyframe (for _accept)
+        self._parallax_deg = math.degrees(float(np.median(rot.residuals_px)) / self._focal)
         if float(np.median(rot.residuals_px)) > 0.5 * sigma and n >= max(8, s.min_inliers):
             pose = self._essential_fit(q_kf, q_cur, rot.rotation)
             mask = pose.inliers | rot.inliers
@@ -354,7 +363,7 @@ class FastEngine:
             g_ess = geo.gric(pose.residuals_px[mask], sigma, 3, 5)
             choice = self._homography_choice(q_kf, q_cur, rot, pose, mask) if g_ess < g_rot else None
             if choice is not None:
-                model, R_rel, residuals, inliers, status = choice
+                fit = _Fit(*choice)
             elif g_ess < g_rot:
                 if self._models_disagree(rot, pose):
                     # The essential fit wandered further from the rotation-only fit than the parallax explains:
@@ -372,6 +381,7 @@ class FastEngine:
         s = self.s
         self._orientation = orientation
         self._R_rel = fit.rotation
+        self._rejected = self._pts[~fit.inliers].reshape(-1, 2)  # where the image disagrees with the camera's motion
         self._keep(fit.inliers)
         self._frames_since_kf += 1
         rel_deg = geo.rotation_angle_deg(fit.rotation)
@@ -379,8 +389,8 @@ class FastEngine:
             self._pts.shape[0] < s.keyframe_min_track_fraction * self._kf_tracks
             or self._frames_since_kf >= s.keyframe_max_frames
             or rel_deg > s.keyframe_max_rotation_deg
-            or math.degrees(float(np.median(rot.residuals_px)) / self._focal) > s.keyframe_max_parallax_deg
-            or status is EstimateStatus.LOW_QUALITY
+            or self._parallax_deg > s.keyframe_max_parallax_deg
+            or fit.status is EstimateStatus.LOW_QUALITY
         )
         if new_kf:
             self._new_keyframe(small)  # may refine self._orientation over the keyframe window
