@@ -30,10 +30,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from walkmon.drivers.video_file import VideoFile
 
 from walkmon.camera.model import read_camera_yaml
 from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
-from walkmon.drivers.video_file import VideoFile
 from walkmon.rotation import RotationEstimator, RotationSettings
 from walkmon.tables import read_table
 
@@ -176,14 +176,16 @@ def main(argv: list[str] | None = None) -> int:
     lines = [
         "# Scenario benchmark (benchmarks/bench_scenarios.py)",
         "",
-        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.machine()} {os.cpu_count()} cores, "
-        f"Python {platform.python_version()}, OpenCV {cv2.__version__}, one thread. Clips: {args.size}, "
-        f"{args.seconds:g} s (2 s standing at each end), 30 fps mp4, seeds 1-{args.seeds}, simulator {simulator_key()}.",
+        (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.machine()} {os.cpu_count()} cores, "
+         f"load average {os.getloadavg()[0]:.1f}, Python {platform.python_version()}, OpenCV {cv2.__version__}, one "
+         f"thread. Clips: {args.size}, {args.seconds:g} s (2 s standing at each end), 30 fps mp4, seeds 1-{args.seeds}"
+         f"{' (those rendered: --cached-only)' if args.cached_only else ''}, simulator {simulator_key()}."),
         "",
-        "Degrees, pitch/yaw/roll. f2f: largest frame-to-frame error over the frames reported ok. flagged: frames "
-        "not ok (low_quality: rotation-only fit used; /held: orientation held). ok>1: frames reported ok whose "
-        "error since the last flagged frame is above 1 deg (target 0); raw>1: ok frames whose start-relative "
-        "error is above 1 deg.",
+        ("Degrees, pitch/yaw/roll. f2f: largest frame-to-frame error over the frames reported ok. flagged: frames "
+         "not ok (low_quality: rotation-only fit used; /held: orientation held). ok>1: frames reported ok whose "
+         "error since the last flagged frame is above 1 deg (target 0); raw>1: ok frames whose start-relative "
+         "error is above 1 deg. frames/s CPU: decode + estimation per CPU second (one thread; inflated by the "
+         "load average above, compare within a table only)."),
         "",
         "| scenario | seed | detrended RMSE | raw RMSE | f2f (ok) | flagged | ok>1 | raw>1 | max raw err | frames/s CPU | met |",
         "|---|---:|---|---|---:|---|---:|---:|---:|---:|---|",

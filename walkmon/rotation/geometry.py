@@ -30,18 +30,18 @@ from walkmon.consts import skew
 from walkmon.errors import InvalidInputError
 
 __all__ = [
+    "HomographyFit",
     "PoseFit",
     "RotationFit",
     "cauchy_weights",
     "centre_from_rotation",
     "essential_from_pose",
     "essential_ransac",
-    "HomographyFit",
-    "pose_rotation_std_deg",
     "gric",
     "homogeneous_from_normalized",
     "homography_fit",
     "orientation_candidates_from_essential",
+    "pose_rotation_std_deg",
     "refine_relative_pose",
     "rotation_angle_deg",
     "rotation_from_bearings",
