@@ -182,21 +182,29 @@ def test_homography_of_a_wall_ahead_fits_and_holds_the_rotation():
     assert hom.ambiguity_deg == pytest.approx(spread)  # what the fast method compares with its threshold
 
 
-def test_homography_shows_the_two_rotations_of_a_facade_passed_sideways():
-    """Walking 0.3 m along a facade 3 m away, looking at it: a plane admits a second (rotation, baseline)
-    pair about baseline/distance (5.7 deg) from the truth; the ambiguity is reported, and one of the two is
-    the truth. Moving straight at the plane leaves (almost) no ambiguity."""
+def test_homography_visibility_resolves_a_facade_passed_sideways_but_not_the_ground():
+    """A plane admits two (rotation, baseline, normal) solutions about baseline/distance apart. Walking 0.3 m
+    along a facade 3 m away while looking at it, the second solution's plane would be seen edge-on with points
+    on both sides of it: not visible, so the rotation is unique and right (the essential matrix of a plane
+    cannot tell). Walking 0.3 m forward over the ground 1.3 m below, both solutions are visible: the ambiguity
+    (about 0.3/1.3 rad) is reported for the caller to flag."""
+    import cv2  # the decomposition itself
+
     R = rotation_from_angles_deg(0.2, 0.5, -0.3)
     q0, q1 = _plane_scene(R, [0.3, 0.0, 0.0], [0.0, 0.0, 1.0], 3.0)
     hom = geo.homography_fit(q0, q1, FOCAL_PX, np.eye(3), method="ransac")
-    assert hom is not None
-    assert 3.0 < hom.ambiguity_deg < 9.0, hom.ambiguity_deg
-    import cv2  # the decomposition itself, to check that the truth is among its rotations
-
+    assert hom is not None and hom.ambiguity_deg < 0.1
+    assert angle_error_deg(hom.rotation, R) < 0.05
     _, Rs, _, _ = cv2.decomposeHomographyMat(hom.homography, np.eye(3))
-    assert min(angle_error_deg(Ri, R) for Ri in Rs) < 0.05
-    q0, q1 = _plane_scene(R, [0.0, 0.0, 0.3], [0.0, 0.0, 1.0], 3.0)
-    assert geo.homography_fit(q0, q1, FOCAL_PX, np.eye(3), method="ransac").ambiguity_deg < 0.5
+    assert max(angle_error_deg(A, B) for A in Rs for B in Rs) > 3.0  # without the visibility test: two
+    rng = np.random.default_rng(2)
+    xy = np.c_[rng.uniform(-0.7, 0.7, 150), rng.uniform(0.1, 0.5, 150)]  # the lower half: ground
+    X = np.c_[xy, np.ones(150)] * (1.3 / xy[:, 1])[:, None]
+    X1 = (X - np.array([0.0, 0.0, 0.3])) @ R
+    g0, g1 = X / X[:, 2:3], X1 / X1[:, 2:3]
+    ground = geo.homography_fit(g0, g1, FOCAL_PX, R, method="ransac")
+    assert ground is not None and 5.0 < ground.ambiguity_deg < 20.0, ground.ambiguity_deg
+    assert angle_error_deg(ground.rotation, R) < 0.05  # the nearest to a good prior is the truth
 
 
 def test_homography_dlt_matches_opencv_on_clean_matches():

@@ -356,6 +356,10 @@ def essential_ransac(
     return E[:3].copy(), (mask.ravel() > 0) if mask is not None else np.ones(n, dtype=bool)
 
 
+#: A homography decomposition is kept when its plane faces the camera for this fraction of the matches.
+_VISIBLE_FRACTION = 0.9
+
+
 @dataclass(frozen=True, slots=True)
 class HomographyFit:
     """Result of :func:`homography_fit`: the rotation of the plane-induced homography ``H = R + c n^T / d``
@@ -365,8 +369,9 @@ class HomographyFit:
     homography: NDArray[np.float64]
     residuals_px: NDArray[np.float64]
     inliers: NDArray[np.bool_]
-    #: Largest angle between the decomposition's rotations: how ambiguous the plane makes the rotation (a
-    #: plane seen side-on while the camera moves along it admits two rotations ~ baseline/distance apart).
+    #: Largest angle between the decomposition's rotations whose plane faces the camera: how ambiguous the
+    #: plane leaves the rotation (walking along the ground keeps two, ~ baseline/height apart; a facade
+    #: passed sideways has one visible solution).
     ambiguity_deg: float = 0.0
 
 
@@ -411,8 +416,14 @@ def homography_fit(
     if H is None or not np.all(np.isfinite(H)) or abs(np.linalg.det(H)) < 1e-12:
         return None
     H = H / np.cbrt(np.linalg.det(H))  # scale so that det = 1 (the rotation part's)
-    _, Rs, _, _ = cv2.decomposeHomographyMat(H, np.eye(3))
-    cands = [np.asarray(r, dtype=float) for r in Rs]
+    _, Rs, _, Ns = cv2.decomposeHomographyMat(H, np.eye(3))
+    # Visibility: the plane's normal n (view-1 frame, n . X = d > 0 on the plane) must face the camera for the
+    # points it was fitted to (n . q1 > 0). A facade passed sideways has a second solution whose plane would
+    # be seen edge-on with points on both sides: not visible, dropped. The ground walked along keeps both.
+    pts = b if method != "dlt" or use is None else b[np.asarray(use, bool)]
+    visible = [np.asarray(r, dtype=float) for r, nrm in zip(Rs, Ns, strict=True)
+               if np.mean(pts @ np.asarray(nrm, dtype=float).ravel() > 0) >= _VISIBLE_FRACTION]
+    cands = visible or [np.asarray(r, dtype=float) for r in Rs]
     R = select_nearest_rotation(cands, rotation_prior)
     spread = max((rotation_angle_deg(A.T @ B) for A in cands for B in cands), default=0.0)
     p = b @ H.T
