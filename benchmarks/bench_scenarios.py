@@ -30,10 +30,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from walkmon.drivers.video_file import VideoFile
 
 from walkmon.camera.model import read_camera_yaml
 from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
+from walkmon.drivers.video_file import VideoFile
 from walkmon.rotation import RotationEstimator, RotationSettings
 from walkmon.tables import read_table
 

@@ -45,8 +45,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from walkmon.drivers.imu_types import ImuBatch, ImuSample
 
+from walkmon.drivers.imu_types import ImuBatch, ImuSample
 from walkmon.errors import (
     ConfigError,
     InvalidInputError,

@@ -327,10 +327,9 @@ def _video_rotations(
     video: str | Path, calib: str | Path | None, method: str, progress: ProgressCallback | None
 ) -> list[RotationEstimate]:
     """The rotation of every frame of ``video`` (the camera model from ``calib``, scaled to the video's size)."""
+    from walkmon.camera.lens_profile import read_camera_file  # noqa: PLC0415  (a YAML, or a Gyroflow .json)
     from walkmon.camera.model import default_camera  # noqa: PLC0415
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
-
-    from walkmon.camera.lens_profile import read_camera_file  # noqa: PLC0415  (a YAML, or a Gyroflow .json)
 
     camera = read_camera_file(calib) if calib is not None else None
     with open_video(video) as frames:

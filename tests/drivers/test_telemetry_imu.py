@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from walkmon.commands.cli import main
-from walkmon.drivers.imu_types import ImuSource
 from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
+from walkmon.drivers.imu_types import ImuSource
 from walkmon.errors import InvalidInputError
 from walkmon.tables import read_table
 
@@ -81,9 +81,8 @@ def test_karma_gopro_reads_400_hz_gyro_and_gravity_down_the_image() -> None:
 @needs_karma
 def test_karma_gyro_follows_the_visual_rotation_on_the_mapped_axes() -> None:
     """The mapped gyro against walkmon's visual rotation of the same frames (independent measurement)."""
-    from walkmon.drivers.video_file import VideoFile
-
     from walkmon.camera.model import default_camera
+    from walkmon.drivers.video_file import VideoFile
     from walkmon.imu.extrinsics import estimate_extrinsics, visual_rates_rad_s
     from walkmon.rotation import RotationEstimator
 
@@ -178,7 +177,6 @@ def test_simulated_embedded_imu_is_aligned_and_fused_within_0_2_deg(
 
 def test_live_source_url_opens_the_telemetry_reader(tmp_path: Path) -> None:
     from walkmon.drivers.sources import open_imu
-
     from walkmon.errors import ConfigError, SourceError
 
     src = open_imu(f"telemetry:{tmp_path / 'x.mp4'}?realtime=0")

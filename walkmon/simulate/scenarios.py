@@ -92,7 +92,7 @@ class TurningGait:
         return {**self._m.meta(), "turns": [{"start_s": a, "duration_s": d, "angle_deg": g} for a, d, g in self.turns]}
 
 
-def _movers(model: Any, seed: int) -> tuple[tuple[float, ...], ...]:
+def _movers(model: Any, seed: int) -> tuple[tuple[float, float, float, float, float, float, float], ...]:
     """Pedestrians and vehicles timed to cross the walker's view while walking (seeded)."""
     rng = np.random.default_rng([seed, 0x30BE])
     (a, b), = [(a, b) for a, b in _walking_span(model)]
@@ -113,7 +113,8 @@ def _movers(model: Any, seed: int) -> tuple[tuple[float, ...], ...]:
             v = rng.uniform(1.0, 1.5) * rng.choice([-1.0, 1.0])
             d = rng.uniform(2.0, 4.0)
             out.append((-v * tc, zc + d, v, 0.0, 0.5, rng.uniform(1.6, 1.85), rng.uniform(0, 20)))
-    return tuple(tuple(float(x) for x in m) for m in out)
+    return tuple((float(m[0]), float(m[1]), float(m[2]), float(m[3]), float(m[4]), float(m[5]), float(m[6]))
+                 for m in out)
 
 
 def _walking_span(model: Any) -> list[tuple[float, float]]:
@@ -138,7 +139,8 @@ class ScenarioSession(SimulatedSession):
         rs = DEFAULT_RENDER_SETTINGS
         (a, b), = _walking_span(self.model)
         if scenario in ("turns", "rolling_shutter"):
-            self.model = TurningGait(self.model, tuple((a + f * (b - a), d, g) for f, d, g in _TURNS))
+            turns = tuple((a + f * (b - a), d, g) for f, d, g in _TURNS)
+            self.model = TurningGait(self.model, turns)  # type: ignore[assignment]  # a GaitModel in all but type
         if scenario == "wall":
             z_end = float(self.model.position_m(np.linspace(0, self.model.duration_s, 200))[:, 2].max())
             rs = dataclasses.replace(rs, wall_ahead_z_m=z_end + 3.0)
