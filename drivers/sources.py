@@ -13,6 +13,8 @@ IMUs (:func:`open_imu`)::
 
     serial:/dev/ttyACM0?baud=115200&...                the serial IMU driver (walkmon.drivers.serial_imu)
     file:imu.csv?realtime=0                            a recorded imu.csv
+    telemetry:clip.mp4?realtime=0                      an action camera's IMU stored in its video file
+                                                       (walkmon.drivers.telemetry_imu; walkmon[telemetry])
     depthai:?rate_hz=200                               the OAK's on-board IMU: needs the depthai: camera,
                                                        whose imu=1 option it turns on (one device)
 
@@ -69,7 +71,7 @@ _CAMERA_OPTIONS: dict[str, dict[str, Callable[[str], Any]]] = {
             "seconds": _pos_float, "distortion": _bool},
 }
 CAMERA_SCHEMES = tuple(_CAMERA_OPTIONS)
-IMU_SCHEMES = ("serial", "file", "depthai")
+IMU_SCHEMES = ("serial", "file", "depthai", "telemetry")
 
 
 def parse_source_url(url: str, options: dict[str, dict[str, Callable[[str], Any]]]) -> tuple[str, str, dict[str, Any]]:
@@ -154,7 +156,8 @@ def open_imu(url: str, camera: Any = None) -> ImuSource:
             raise ConfigError(msg) from exc
         return _SerialImuSource(url, serial_imu.SerialImu(serial_imu.settings_from_url(url)))
     scheme, target, opts = parse_source_url(url, {"serial": {}, "file": {"realtime": _bool},
-                                                  "depthai": {"rate_hz": _pos_float}})
+                                                  "depthai": {"rate_hz": _pos_float},
+                                                  "telemetry": {"realtime": _bool}})
     if scheme == "depthai":
         if target or camera is None or not hasattr(camera, "imu_source"):
             msg = (f"source {url!r}: the OAK's IMU is read through its camera: use it with a depthai: camera "
@@ -162,6 +165,13 @@ def open_imu(url: str, camera: Any = None) -> ImuSource:
             raise ConfigError(msg)
         camera.enable_imu(opts.get("rate_hz"))
         return camera.imu_source()
+    if scheme == "telemetry":
+        from walkmon.drivers.telemetry_imu import TelemetryImu  # noqa: PLC0415
+
+        if not target:
+            msg = f"source {url!r}: telemetry needs a file, e.g. telemetry:clip.mp4"
+            raise ConfigError(msg)
+        return TelemetryImu(url, target, **opts)
     from walkmon.drivers.file_imu import FileImu  # noqa: PLC0415
 
     if not target:

@@ -364,10 +364,11 @@ def _video_rotations(
     video: str | Path, calib: str | Path | None, method: str, progress: ProgressCallback | None
 ) -> list[RotationEstimate]:
     """The rotation of every frame of ``video`` (the camera model from ``calib``, scaled to the video's size)."""
-    from walkmon.camera.model import default_camera, read_camera_yaml  # noqa: PLC0415
+    from walkmon.camera.lens_profile import read_camera_file  # noqa: PLC0415  (a YAML, or a Gyroflow .json)
+    from walkmon.camera.model import default_camera  # noqa: PLC0415
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
 
-    camera = read_camera_yaml(calib) if calib is not None else None
+    camera = read_camera_file(calib) if calib is not None else None
     with open_video(video) as frames:
         if camera is None:
             camera = default_camera(frames.width_px, frames.height_px)
@@ -386,6 +387,28 @@ def _video_rotations(
                 progress(done[0], frames.frame_count)
 
         return estimate_rotations(frames, estimator, on_frame)
+
+
+#: ``--imu telemetry:FILE``: the IMU an action camera stored in FILE (walkmon.drivers.telemetry_imu).
+TELEMETRY_PREFIX = "telemetry:"
+
+
+def _read_imu(imu_path: str | Path) -> tuple[Any, dict[str, Any]]:
+    """The IMU recording ``imu`` names: an imu.csv, or ``telemetry:FILE`` (a camera's embedded gyroscope and
+    accelerometer in camera axes, :mod:`walkmon.drivers.telemetry_imu`); plus what imu.json says of its source."""
+    spec = str(imu_path)
+    if spec.lower().startswith(TELEMETRY_PREFIX):
+        from walkmon.drivers.telemetry_imu import read_telemetry_imu  # noqa: PLC0415
+
+        path = spec[len(TELEMETRY_PREFIX):]
+        if not path:
+            msg = "--imu telemetry: needs a file, e.g. --imu telemetry:clip.mp4"
+            raise InvalidInputError(msg)
+        found = read_telemetry_imu(path)
+        return found.recording, {"telemetry": found.to_dict()}
+    from walkmon.tables import read_imu_csv  # noqa: PLC0415
+
+    return read_imu_csv(imu_path), {}
 
 
 def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) -> FusionSettings:
@@ -424,21 +447,21 @@ def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, 
 
 
 def _imu_only_columns(
-    imu_path: str | Path, imu_filter: str, offset_s: float, calib: str | Path | None = None
+    imu_path: str | Path, imu_filter: str, offset_s: float | None, calib: str | Path | None = None
 ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """IMU-only analysis: the angles.csv columns and imu.json of an imu.csv."""
+    """IMU-only analysis: the angles.csv columns and imu.json of an imu.csv (or a camera's telemetry)."""
     from walkmon.imu.recordings import imu_only_columns  # noqa: PLC0415
-    from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
-    imu = read_imu_csv(imu_path)
-    cols: dict[str, Any] = dict(imu_only_columns(imu, _imu_settings(imu_filter, offset_s, calib)))
+    imu, source = _read_imu(imu_path)
+    cols: dict[str, Any] = dict(imu_only_columns(imu, _imu_settings(imu_filter, offset_s or 0.0, calib)))
     from walkmon.gait.session import ImuInput  # noqa: PLC0415
 
     cols["_imu_input"] = ImuInput(imu.t_s - imu.t_s[0], imu.accelerometer_m_s2, imu.gyroscope_rad_s)
     info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter,
             "accelerometer_calibration": None if calib is None else str(calib), "samples": len(imu.t_s),
             "rate_hz": round(imu.rate_hz, 3), "rows": len(cols["t"]),
-            "axes": "IMU's own axes (no camera extrinsics)"}
+            "axes": "camera axes (telemetry mapping)" if source else "IMU's own axes (no camera extrinsics)",
+            **source}
     return dict(cols), info
 
 
@@ -468,24 +491,23 @@ def _imu_coverage(imu_t_s: NDArray[np.float64], offset_s: float, frame_t_s: NDAr
 
 
 def _fused_columns(
-    columns: dict[str, Any], estimates: Sequence[RotationEstimate], imu_path: str | Path, offset_s: float,
+    columns: dict[str, Any], estimates: Sequence[RotationEstimate], imu_path: str | Path, offset_s: float | None,
     extrinsics: str, imu_filter: str = "vqf", calib: str | Path | None = None,
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The video's angles.csv columns with pitch/yaw/roll replaced by the angles fused with the IMU, plus
     pitch_abs, roll_abs, visual_used and the video-only angles as pitch_video, ...; and imu.json (mode,
     extrinsics estimate and residual, increments used)."""
     from walkmon.imu.recordings import extrinsics_from_angles, fused_columns  # noqa: PLC0415
-    from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
-    imu = read_imu_csv(imu_path)
+    imu, source = _read_imu(imu_path)
     t = np.asarray(columns["t"], dtype=float)
     ft = t + estimates[0].t_s
     visual = np.column_stack([np.asarray(columns[k], dtype=float) for k in ("pitch", "yaw", "roll")])
     ok = np.array([e.status.is_measured for e in estimates], dtype=bool)
-    settings = _imu_settings(imu_filter, offset_s, calib)
+    settings = _imu_settings(imu_filter, offset_s or 0.0, calib)
     info: dict[str, Any] = {"mode": "fused", "imu": str(imu_path), "imu_filter": imu_filter,
                             "accelerometer_calibration": None if calib is None else str(calib),
-                            "samples": len(imu.t_s), "rate_hz": round(imu.rate_hz, 3)}
+                            "samples": len(imu.t_s), "rate_hz": round(imu.rate_hz, 3), **source}
     try:
         ext = extrinsics_from_angles(imu, ft, visual, ok)
         info["extrinsics_estimate"] = ext.to_dict()
@@ -502,6 +524,15 @@ def _fused_columns(
         settings = dataclasses.replace(settings, camera_from_imu=tuple(ext.camera_from_imu.ravel()),
                                        time_offset_s=ext.time_offset_s)
         _log.info("using the estimated extrinsics (residual %.2f deg/s)", ext.residual_deg_s)
+    elif source and offset_s is None:
+        # a camera's embedded IMU: axes known (mapped), clock not frame-exact: the offset estimated from the gyro
+        # vs visual rate magnitudes (independent of the axes) when they agree, else none
+        if ext is not None and ext.correlation >= 0.5:
+            settings = dataclasses.replace(settings, time_offset_s=ext.time_offset_s)
+            info["time_offset"] = "estimated from gyro vs visual rates"
+        else:
+            info["time_offset"] = "not estimated (gyro and visual rates do not agree): 0"
+            _log.warning("%s: could not estimate the IMU clock offset; using 0 (give --imu-offset-s)", imu_path)
     info["extrinsics_used"] = {"camera_from_imu": settings.camera_from_imu_matrix.round(6).tolist(),
                                "time_offset_s": settings.time_offset_s}
     info["imu_coverage"] = _imu_coverage(imu.t_s, settings.time_offset_s, ft, str(imu_path))
@@ -526,7 +557,7 @@ def analyze(
     baseline: Any = None,
     mode: str = "walkmon",
     imu_filter: str = "vqf",
-    imu_offset_s: float = 0.0,
+    imu_offset_s: float | None = None,
     imu_extrinsics: str = "identity",
     imu_calib: str | Path | None = None,
     progress: ProgressCallback | None = None,
@@ -534,12 +565,15 @@ def analyze(
     """Analyse a walk recorded by a chest-worn camera (and/or an IMU): what ``walkmon analyze`` computes.
 
     ``video``: a video file (any format OpenCV/FFmpeg reads); ``imu``: an imu.csv (``t,gx,gy,gz,ax,ay,az``; s,
-    rad/s, m/s2), fused with the video, or analysed alone when ``video`` is None; ``calib``: a ROS camera_info
+    rad/s, m/s2) or ``"telemetry:FILE"`` (the gyroscope and accelerometer an action camera stored in FILE, read
+    with telemetry-parser and mapped to camera axes), fused with the video, or analysed alone when ``video`` is
+    None; ``calib``: a ROS camera_info
     YAML (default: 70 deg HFOV pinhole, scaled to the video); ``method``: ``"fast"`` or ``"paper"``;
     ``baseline``: the same person's normal walk (indicators.json path, its dict, Indicators or an Analysis):
     classify relative to it; ``mode``: ``"walkmon"`` or ``"paper"`` indicator processing; ``imu_filter``:
     the IMU attitude core, for IMU-only analysis and under the fusion (``vqf``, default; ``eskf``,
-    ``eskf-handheld``); ``imu_offset_s``: added to IMU times to put them on the video clock; ``imu_extrinsics``:
+    ``eskf-handheld``); ``imu_offset_s``: added to IMU times to put them on the video clock (None: 0 for an imu.csv, estimated from gyro vs
+    visual rates for telemetry); ``imu_extrinsics``:
     ``"identity"`` or ``"estimate"`` (from this recording); ``imu_calib``: an accelerometer calibration file of
     ``walkmon calibrate-imu``;
     ``progress(done, total)``: called after every frame. Bad input raises a :class:`~walkmon.errors.WalkmonError`
@@ -551,7 +585,7 @@ def analyze(
     if imu_extrinsics not in ("identity", "estimate"):
         msg = f"unknown imu_extrinsics {imu_extrinsics!r}; expected identity or estimate"
         raise ConfigError(msg)
-    if not math.isfinite(float(imu_offset_s)):
+    if imu_offset_s is not None and not math.isfinite(float(imu_offset_s)):
         msg = f"imu_offset_s must be a finite number of seconds, got {imu_offset_s!r}"
         raise ConfigError(msg)
     estimates: list[RotationEstimate] = []
@@ -565,8 +599,9 @@ def analyze(
             raise ConfigError(msg)
         from walkmon.tables import imu_file_kind  # noqa: PLC0415
 
-        if imu_file_kind(imu) == "acc":  # t,ax,ay,az: steps, bouts, gravity pitch/roll, no yaw
-            columns, imu_info = _acc_only_columns(imu, imu_offset_s)
+        telemetry = str(imu).lower().startswith(TELEMETRY_PREFIX)
+        if not telemetry and imu_file_kind(imu) == "acc":  # t,ax,ay,az: steps, bouts, gravity pitch/roll, no yaw
+            columns, imu_info = _acc_only_columns(imu, imu_offset_s or 0.0)
         else:
             columns, imu_info = _imu_only_columns(imu, imu_filter, imu_offset_s, imu_calib)
         imu_input = columns.pop("_imu_input")

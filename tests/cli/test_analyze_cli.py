@@ -67,7 +67,9 @@ def test_analyze_writes_angles_csv(small_video, tmp_path, capsys):
     # panning the image right = the camera turning right: yaw grows, about atan(1 px / f) per frame
     f = default_camera(W, H).fx
     expected = np.degrees(np.arctan(19 / f))
-    assert table["yaw"][-1] == pytest.approx(expected, abs=0.3)
+    # (a flat picture shifted sideways is, to the camera, a plane passed sideways as much as a turn: the
+    # homography check of issue 14 flags a few frames and uses the rotation-only fit there, 0.34 deg short)
+    assert table["yaw"][-1] == pytest.approx(expected, abs=0.4)
     assert "20 frames" in capsys.readouterr().out
 
 
@@ -82,7 +84,14 @@ def test_analyze_counts_frames_per_status_and_held_black_frames(small_video, tmp
     writer.release()
     out = tmp_path / "out"
     assert main(["analyze", str(clip), "--out", str(out), "--no-progress"]) == 0
-    assert f"20 frames: 17 ok, 3 held (too_few_features) -> {out / 'angles.csv'}" in capsys.readouterr().out
+    # 3 held black frames; the rest ok or, where the shifted flat picture's plane disagrees with a rotation,
+    # low_quality (see test_analyze_writes_angles_csv)
+    summary = capsys.readouterr().out
+    assert "20 frames: " in summary and "3 held (too_few_features)" in summary
+    counts = summary.split("20 frames: ")[1].split(" -> ")[0]
+    ok = int(counts.split(" ok")[0])
+    low = int(counts.split(" low_quality")[0].split(", ")[-1]) if "low_quality" in counts else 0
+    assert ok + low == 17 and low <= 3, counts
 
 
 def test_status_summary_tells_estimated_low_quality_from_held_frames():

@@ -152,3 +152,66 @@ def test_too_few_points_raise_invalid_input():
 def test_shape_mismatch_is_reported_with_both_shapes():
     with pytest.raises(InvalidInputError, match=r"\(5, 2\).*\(4, 2\)"):
         geo.rotation_only_fit(np.zeros((5, 2)), np.zeros((4, 2)), FOCAL_PX)
+
+
+def _plane_scene(R, c, n_world, d_m, *, n=120, noise_px=0.0, seed=0):
+    """Matches of points on the plane ``n . X = d`` (view-0 frame) seen from view 0 and from (R, c)."""
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-1, 1, (n, 2)) * np.array([0.7, 0.5])
+    rays = np.c_[xy, np.ones(n)]
+    X = rays * (d_m / (rays @ np.asarray(n_world)))[:, None]
+    X1 = (X - np.asarray(c)) @ np.asarray(R)
+    q0, q1 = X / X[:, 2:3], X1 / X1[:, 2:3]
+    q0[:, :2] += rng.normal(0, noise_px / FOCAL_PX, (n, 2))
+    q1[:, :2] += rng.normal(0, noise_px / FOCAL_PX, (n, 2))
+    return q0, q1
+
+
+def test_homography_of_a_wall_ahead_fits_and_holds_the_rotation():
+    import cv2  # the decomposition's rotations, to check that the truth is among them
+
+    R = rotation_from_angles_deg(1.5, -2.0, 0.7)
+    q0, q1 = _plane_scene(R, [0.02, -0.01, 0.5], [0.0, 0.0, 1.0], 4.0, noise_px=0.2)  # 0.5 m towards a wall 4 m off
+    hom = geo.homography_fit(q0, q1, FOCAL_PX, R)
+    assert hom is not None and hom.inliers.mean() > 0.95
+    # the solution nearest a good prior is the truth, within what 0.2 px of noise does to a homography (0.15 deg)
+    assert angle_error_deg(hom.rotation, R) < 0.25
+    assert np.median(hom.residuals_px) < 0.5
+    _, Rs, _, _ = cv2.decomposeHomographyMat(hom.homography, np.eye(3))
+    spread = max(angle_error_deg(A, B) for A in Rs for B in Rs)
+    assert hom.ambiguity_deg == pytest.approx(spread)  # what the fast method compares with its threshold
+
+
+def test_homography_visibility_resolves_a_facade_passed_sideways_but_not_the_ground():
+    """A plane admits two (rotation, baseline, normal) solutions about baseline/distance apart. Walking 0.3 m
+    along a facade 3 m away while looking at it, the second solution's plane would be seen edge-on with points
+    on both sides of it: not visible, so the rotation is unique and right (the essential matrix of a plane
+    cannot tell). Walking 0.3 m forward over the ground 1.3 m below, both solutions are visible: the ambiguity
+    (about 0.3/1.3 rad) is reported for the caller to flag."""
+    import cv2  # the decomposition itself
+
+    R = rotation_from_angles_deg(0.2, 0.5, -0.3)
+    q0, q1 = _plane_scene(R, [0.3, 0.0, 0.0], [0.0, 0.0, 1.0], 3.0)
+    hom = geo.homography_fit(q0, q1, FOCAL_PX, np.eye(3), method="ransac")
+    assert hom is not None and hom.ambiguity_deg < 0.1
+    assert angle_error_deg(hom.rotation, R) < 0.05
+    _, Rs, _, _ = cv2.decomposeHomographyMat(hom.homography, np.eye(3))
+    assert max(angle_error_deg(A, B) for A in Rs for B in Rs) > 3.0  # without the visibility test: two
+    rng = np.random.default_rng(2)
+    xy = np.c_[rng.uniform(-0.7, 0.7, 150), rng.uniform(0.1, 0.5, 150)]  # the lower half: ground
+    X = np.c_[xy, np.ones(150)] * (1.3 / xy[:, 1])[:, None]
+    X1 = (X - np.array([0.0, 0.0, 0.3])) @ R
+    g0, g1 = X / X[:, 2:3], X1 / X1[:, 2:3]
+    ground = geo.homography_fit(g0, g1, FOCAL_PX, R, method="ransac")
+    assert ground is not None and 5.0 < ground.ambiguity_deg < 20.0, ground.ambiguity_deg
+    assert angle_error_deg(ground.rotation, R) < 0.05  # the nearest to a good prior is the truth
+
+
+def test_homography_dlt_matches_opencv_on_clean_matches():
+    R = rotation_from_angles_deg(-1.0, 2.5, 0.4)
+    q0, q1 = _plane_scene(R, [0.1, 0.05, 0.4], [0.1, 0.0, 1.0], 5.0, noise_px=0.1, seed=4)
+    ours = geo.homography_fit(q0, q1, FOCAL_PX, R, method="dlt")
+    ref = geo.homography_fit(q0, q1, FOCAL_PX, R, method="ransac")
+    assert ours is not None and ref is not None
+    assert np.allclose(ours.homography, ref.homography, atol=2e-3)
+    assert angle_error_deg(ours.rotation, R) < 0.2 and np.median(ours.residuals_px) < 0.2

@@ -24,7 +24,8 @@ HELP = "estimate the camera rotation of every frame of a walking video -> OUT/an
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("video", nargs="?", help="video file (any format OpenCV/FFmpeg reads, e.g. mp4); optional with --imu")
-    p.add_argument("--calib", metavar="CAMERA_YAML", help="ROS camera_info YAML (default: 70 deg HFOV pinhole)")
+    p.add_argument("--calib", metavar="CAMERA", help="ROS camera_info YAML, or a Gyroflow lens profile .json (action "
+                   "cameras: fisheye lenses; see 'walkmon calibrate --help'); default: 70 deg HFOV pinhole")
     p.add_argument("--method", choices=("fast", "paper"), default="fast", help="rotation method (default fast)")
     p.add_argument("--out", required=True, help="output folder (created) for angles.csv")
     p.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")

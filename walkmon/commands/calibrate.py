@@ -21,6 +21,20 @@ HELP = "calibrate camera intrinsics from chessboard views (video file or image f
 #: Most inner corners per board side (printed boards have < 30; 100000x100000 would allocate 112 GiB).
 MAX_BOARD_CORNERS = 100
 
+DESCRIPTION = """Camera intrinsics for walkmon, written as a ROS camera_info YAML (--calib of analyze and live).
+
+From chessboard views: SOURCE is a video or a folder of images of a printed chessboard (--board inner corners,
+--square-mm). --model plumb_bob (default) suits ordinary lenses up to ~90 deg; action cameras (GoPro, DJI,
+Insta360, Sony action cams, RunCam) and other fisheye lenses need --model equidistant: OpenCV's fisheye
+(Kannala-Brandt) model r = f*theta*(1 + k1 theta^2 + k2 theta^4 + k3 theta^6 + k4 theta^8), four coefficients.
+Calibrate in the lens mode you record in (Wide/Linear/SuperView crop differently).
+
+From a published lens profile: SOURCE is a Gyroflow lens profile .json (github.com/gyroflow/lens_profiles, CC0:
+thousands of camera/lens-mode profiles). opencv_fisheye profiles become the equidistant model, opencv_standard
+ones plumb_bob; the result is at the profile's calib_dimension and is scaled to each video's size (same
+aspect ratio). 'walkmon analyze --calib PROFILE.json' reads such a profile directly too.
+"""
+
 _IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
 
 
@@ -61,10 +75,13 @@ def _every(text: str) -> int:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("source", help="video file, or a folder of chessboard images")
+    p.description = DESCRIPTION
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.add_argument("source", help="video file, a folder of chessboard images, or a Gyroflow lens profile .json")
     p.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
     p.add_argument("--square-mm", type=_positive, default=25.0, help="chessboard square size in mm (default 25)")
-    p.add_argument("--model", choices=("plumb_bob", "equidistant"), default="plumb_bob", help="distortion model")
+    p.add_argument("--model", choices=("plumb_bob", "equidistant"), default="plumb_bob",
+                   help="distortion model: plumb_bob (ordinary lenses) or equidistant (fisheye: action cameras)")
     p.add_argument("--every", type=_every, default=10, help="use every Nth video frame (default 10)")
     p.add_argument("--out", required=True, help="output camera_info YAML path")
 
@@ -122,6 +139,15 @@ def run(args: argparse.Namespace) -> int:
     from walkmon.camera.chessboard import calibrate_chessboard  # noqa: PLC0415
     from walkmon.camera.model import write_camera_yaml  # noqa: PLC0415
     from walkmon.commands.progress import Progress  # noqa: PLC0415
+
+    if str(args.source).lower().endswith(".json"):  # a published (Gyroflow) lens profile
+        from walkmon.camera.lens_profile import read_lens_profile  # noqa: PLC0415
+
+        cam = read_lens_profile(args.source)
+        write_camera_yaml(cam, args.out)
+        sys.stdout.write(f"lens profile {cam.name!r}: {cam.width_px}x{cam.height_px} {cam.distortion_model}, "
+                         f"fx={cam.fx:.1f} fy={cam.fy:.1f} cx={cam.cx:.1f} cy={cam.cy:.1f} -> {args.out}\n")
+        return 0
 
     with Progress(None, "finding the chessboard", "image") as progress:
         result = calibrate_chessboard(

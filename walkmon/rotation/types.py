@@ -66,8 +66,9 @@ class RotationSettings:
         ``min_feature_distance_px``: spacing of detected corners in a 640 px wide video (scaled with the
         width, so a smaller video gets as many corners across its view). ``klt_window_px``/``klt_levels``: Lucas-Kanade
         window (at tracking resolution) and pyramid levels. ``keyframe_max_frames``,
-        ``keyframe_min_track_fraction``, ``keyframe_max_rotation_deg``: start a new keyframe when any is
-        exceeded. ``keyframe_window``: keyframes kept for the sliding-window refinement of each new keyframe's
+        ``keyframe_min_track_fraction``, ``keyframe_max_rotation_deg``, ``keyframe_max_parallax_deg`` (the
+        rotation-only fit's median residual as an angle: translation seen against near structure, a wall ahead):
+        start a new keyframe when any is exceeded. ``keyframe_window``: keyframes kept for the sliding-window refinement of each new keyframe's
         orientation (1 = plain chaining). ``feature_noise_px``: tracking noise assumed by the GRIC model selection.
     both methods
         ``min_inliers``: fewer inliers than this holds the orientation. ``inlier_px``: inlier threshold.
@@ -90,6 +91,7 @@ class RotationSettings:
     keyframe_max_frames: int = 30
     keyframe_min_track_fraction: float = 0.6
     keyframe_max_rotation_deg: float = 8.0
+    keyframe_max_parallax_deg: float = 3.0
     keyframe_window: int = 4
     feature_noise_px: float = 0.5
     min_inliers: int = 12
@@ -116,6 +118,7 @@ class RotationSettings:
             "keyframe_max_frames": self.keyframe_max_frames >= 1,
             "keyframe_min_track_fraction": 0.0 < self.keyframe_min_track_fraction <= 1.0,
             "keyframe_max_rotation_deg": self.keyframe_max_rotation_deg > 0,
+            "keyframe_max_parallax_deg": self.keyframe_max_parallax_deg > 0,
             "keyframe_window": 1 <= self.keyframe_window <= 20,
             "feature_noise_px": self.feature_noise_px > 0,
             "min_inliers": self.min_inliers >= 5,

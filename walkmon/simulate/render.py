@@ -29,7 +29,10 @@ _log = logging.getLogger(__name__)
 _LUT_STEP_M = 0.01
 
 #: Surface labels of :meth:`Renderer.cast` (index = label; -1 means sky).
-SURFACES = ("ground", "left_wall", "right_wall", "far")
+SURFACES = ("ground", "left_wall", "right_wall", "far", "wall_ahead", "mover")
+
+#: Brightest gain a camera applies in low light (``RenderSettings.light`` below 1/this leaves the image darker).
+_MAX_LOW_LIGHT_GAIN = 4.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,7 +44,19 @@ class RenderSettings:
     ``rolling_shutter_s`` > 0 reads the rows out over that time, top to bottom, the middle row at the frame time
     (so truth.csv's pose is the middle row's); the image is rendered in row bands, each at its own pose, with
     bands thin enough that the image moves less than ``rolling_shutter_step_px`` from one band to the next.
-    0 (the default) is a global shutter."""
+    0 (the default) is a global shutter.
+
+    Scenario options (issue 14; the defaults leave every image byte-identical to a plain street):
+    ``wall_ahead_z_m`` > 0 closes the street with a textured facade on the plane ``z = wall_ahead_z_m`` (a wall or
+    door the walker walks towards). ``movers``: independently moving textured people/vehicles, each a tuple
+    ``(x0_m, z0_m, vx_m_s, vz_m_s, width_m, height_m, texture_u_m)``: an upright rectangle facing the camera,
+    standing on the ground, centred at ``x0 + vx t`` on the plane ``z = z0 + vz t`` at the frame time ``t``
+    (:meth:`Renderer.set_time`; the movers' own motion during exposure and rolling-shutter readout is not
+    modelled, the camera's is). ``light`` < 1 scales the scene's radiance (dusk 0.2, night 0.05): noise is
+    added at the sensor's level and the camera's gain (at most 4x) then brightens signal and noise together.
+    ``contrast`` < 1 flattens the texture towards mid grey (haze, a white corridor); ``fog_distance_m`` small
+    for fog. ``occlusion`` > 0 covers that fraction of the image width, from the lower left corner, with a
+    dark, blurred, lightly textured blob fixed to the lens (a scarf or a hand)."""
 
     exposure_s: float = 0.008
     max_blur_taps: int = 8
@@ -54,8 +69,21 @@ class RenderSettings:
     lod_bias: float = 0.0
     rolling_shutter_s: float = 0.0
     rolling_shutter_step_px: float = 0.5
+    wall_ahead_z_m: float = 0.0
+    movers: tuple[tuple[float, float, float, float, float, float, float], ...] = ()
+    light: float = 1.0
+    contrast: float = 1.0
+    occlusion: float = 0.0
 
     def __post_init__(self) -> None:
+        if not (self.wall_ahead_z_m >= 0 and 0 < self.light <= 1.0 and 0 < self.contrast <= 1.0
+                and 0 <= self.occlusion <= 0.8):
+            msg = (f"scenario settings out of range: wall_ahead_z_m >= 0, light and contrast in (0, 1], occlusion "
+                   f"in [0, 0.8]; got {self.wall_ahead_z_m}, {self.light}, {self.contrast}, {self.occlusion}")
+            raise ConfigError(msg)
+        if any(len(m) != 7 or m[4] <= 0 or m[5] <= 0 for m in self.movers):
+            msg = "each mover must be (x0_m, z0_m, vx_m_s, vz_m_s, width_m > 0, height_m > 0, texture_u_m)"
+            raise ConfigError(msg)
         if not (0.0 <= self.rolling_shutter_s <= 0.1 and self.rolling_shutter_step_px > 0):
             msg = (
                 f"rolling shutter readout must be in [0, 0.1] s (got {self.rolling_shutter_s}) "
@@ -234,6 +262,12 @@ class Renderer:
         gx, gy = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
         self._grid = (gx, gy)
         self._noise_bank: list[NDArray[np.float32]] | None = None
+        self.time_s = 0.0
+        self._occluder: tuple[NDArray[np.float32], NDArray[np.float32]] | None = None
+
+    def set_time(self, t_s: float) -> None:
+        """The frame time: where the movers (``RenderSettings.movers``) stand in the next renders."""
+        self.time_s = float(t_s)
 
     # ------------------------------------------------------------------------------------------ geometry
     def _world_rays(self, rotation: NDArray[np.float64], pixels: slice) -> tuple[NDArray[np.float32], ...]:
@@ -300,7 +334,40 @@ class Renderer:
             ok = (height >= 0) & (height <= self._far_lut[blk])
             dist[cand[ok]] = s_c[ok]
             label[cand[ok]] = 3
+        if self.settings.wall_ahead_z_m > 0 or self.settings.movers:
+            self._cast_scenario(dist, label, (dxs, dys, dzs), (px, py, pz))
         return dist, label, (dxs, dys, dzs)
+
+    def mover_positions(self, t_s: float | None = None) -> list[tuple[float, float, float, float, float]]:
+        """``(centre x, plane z, width, height, texture u)`` of every mover at ``t_s`` (default: the set time)."""
+        t = self.time_s if t_s is None else float(t_s)
+        return [(x0 + vx * t, z0 + vz * t, w, h, u0) for x0, z0, vx, vz, w, h, u0 in self.settings.movers]
+
+    def _cast_scenario(self, dist, label, rays, origin) -> None:  # noqa: ANN001
+        """The wall ahead (label 4) and the movers (label 5; which one in ``self._mover_hit``), in place."""
+        dxs, dys, dzs = rays
+        px, py, pz = origin
+        H = self.scene.camera_height_m
+        z_wall = self.settings.wall_ahead_z_m
+        if z_wall > 0:
+            s = np.full(dist.size, np.inf, np.float32)
+            np.divide(np.float32(z_wall - pz), dzs, out=s, where=dzs > 1e-5)
+            hit = np.nonzero(s < dist)[0]
+            hit = hit[(np.float32(H - py) - s[hit] * dys[hit]) >= 0]  # above the ground (no sky over it: tall)
+            dist[hit] = s[hit]
+            label[hit] = 4
+        self._mover_hit = np.full(dist.size, -1, np.int16)
+        for k, (xc, zc, w, h, _u0) in enumerate(self.mover_positions()):
+            s = np.full(dist.size, np.inf, np.float32)
+            np.divide(np.float32(zc - pz), dzs, out=s, where=dzs > 1e-5)
+            cand = np.nonzero(s < dist)[0]
+            sc = s[cand]
+            x = np.float32(px - xc) + sc * dxs[cand]
+            up = np.float32(H - py) - sc * dys[cand]
+            ok = (np.abs(x) <= np.float32(w / 2)) & (up >= 0) & (up <= np.float32(h))
+            dist[cand[ok]] = sc[ok]
+            label[cand[ok]] = 5
+            self._mover_hit[cand[ok]] = k
 
     def _pixels(self, rows: tuple[int, int] | None) -> slice:
         if rows is None:
@@ -437,7 +504,41 @@ class Renderer:
             col = self._atlases[lab].sample(u, v, level)
             fog = 1.0 - np.exp(-s * np.float32(1.0 / st.fog_distance_m))
             img[idx] = col + (fog_c - col) * fog[:, None]
+        if st.wall_ahead_z_m > 0 or st.movers:
+            self._shade_scenario(img, dist, label, (dxs, dys, dzs), (px, py, pz), lod, fog_c)
         return img.reshape(-1, self.camera.width_px, 3), dist, (dxs, dys, dzs)
+
+    def _shade_scenario(self, img, dist, label, rays, origin, lod, fog_c) -> None:  # noqa: ANN001
+        """Texture for the wall ahead (the left facade's texture, u along x) and the movers (the right facade's
+        texture, darker, each from its own ``texture_u_m``), in place."""
+        dxs, dys, dzs = rays
+        px, py, _pz = origin
+        H = self.scene.camera_height_m
+        tex = self.scene.left_wall
+        inv = np.float32(1.0 / tex.texel_m)
+        rows = np.float32(tex.levels[0].shape[0])
+        movers = self.mover_positions()
+        for lab in (4, 5):
+            idx = np.nonzero(label == lab)[0]
+            if idx.size == 0:
+                continue
+            s = dist[idx]
+            if lab == 4:
+                u = (np.float32(px) + s * dxs[idx]) * inv
+                atlas = self._atlases[1]
+            else:
+                k = self._mover_hit[idx]
+                xc = np.array([m[0] - m[2] / 2 - m[4] for m in movers], np.float32)[k]
+                u = (np.float32(px) - xc + s * dxs[idx]) * inv
+                atlas = self._atlases[2]
+            v = rows - (np.float32(H - py) - s * dys[idx]) * inv
+            cos_i = np.abs(dzs[idx])
+            level = lod[idx] + np.float32(0.5) * np.log2((s * inv) ** 2 / np.maximum(cos_i, np.float32(0.02)))
+            col = atlas.sample(u, v, level)
+            if lab == 5:
+                col *= np.float32(0.7)
+            fog = 1.0 - np.exp(-s * np.float32(1.0 / self.settings.fog_distance_m))
+            img[idx] = col + (fog_c - col) * fog[:, None]
 
     def blur_taps(self, blur_px: float) -> int:
         """Samples to average along a pixel's motion of ``blur_px`` during the exposure (1 = no blur)."""
@@ -450,11 +551,35 @@ class Renderer:
         st = self.settings
         if st.defocus_sigma_px > 0:
             img = cv2.GaussianBlur(img, (0, 0), st.defocus_sigma_px)
+        if st.contrast < 1.0:
+            img = np.float32(128.0) + (img - np.float32(128.0)) * np.float32(st.contrast)
+        if st.occlusion > 0:
+            alpha, cover = self._occlusion_layer()
+            img = img * (np.float32(1.0) - alpha) + cover * alpha
         img = img * self._vignette  # type: ignore[assignment]  # float32 * float32
+        if st.light < 1.0:
+            img = img * np.float32(st.light)  # the sensor sees less light; noise is added at this level
         if st.read_noise_dn > 0 or st.shot_noise_gain > 0:
             sigma = np.sqrt(np.float32(st.read_noise_dn**2) + np.float32(st.shot_noise_gain) * np.maximum(img, 0.0))
             img += self._noise(rng) * sigma
+        if st.light < 1.0:
+            img = img * np.float32(min(1.0 / st.light, _MAX_LOW_LIGHT_GAIN))  # the camera's gain
         return np.clip(img + np.float32(0.5), 0, 255).astype(np.uint8)
+
+    def _occlusion_layer(self) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+        """A soft-edged blob fixed to the lens over the lower left (alpha (H,W,1)) and its dark fabric (H,W,3)."""
+        if self._occluder is None:
+            h, w = self.camera.height_px, self.camera.width_px
+            r = self.settings.occlusion * w
+            yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+            d = np.hypot(xx / 1.0, (yy - h) * 1.3)  # an ellipse from the lower left corner
+            alpha = np.clip((np.float32(r) - d) / np.float32(0.08 * w + 1.0), 0.0, 1.0)
+            alpha = cv2.GaussianBlur(alpha, (0, 0), 0.02 * w + 1.0)[..., None]
+            rng = np.random.default_rng(0x5CA7F)
+            weave = cv2.GaussianBlur(rng.standard_normal((h, w)).astype(np.float32), (0, 0), 2.0)
+            cover = (np.float32(40.0) + np.float32(25.0) * weave)[..., None] * np.array([0.9, 0.8, 1.0], np.float32)
+            self._occluder = (alpha.astype(np.float32), cover.astype(np.float32))
+        return self._occluder
 
     def _noise(self, rng: np.random.Generator) -> NDArray[np.float32]:
         """Unit white noise (H, W, 3): a random crop of a random one of a few pre-drawn fields, randomly flipped

@@ -1,0 +1,187 @@
+"""A camera's embedded IMU (``--imu telemetry:FILE``): the axis mapping checked on a real GoPro file against
+gravity and against the visual rotation of its own frames, and the fused path on a simulated embedded IMU."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from walkmon.commands.cli import main
+from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
+from walkmon.drivers.imu_types import ImuSource
+from walkmon.errors import InvalidInputError
+from walkmon.tables import read_table
+
+KARMA = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "gopro" / "karma.mp4"
+if not KARMA.is_file():
+    KARMA = Path("/work/shared/data/gopro/karma.mp4")
+
+tp = pytest.importorskip("telemetry_parser")
+
+from walkmon.drivers.telemetry_imu import (  # noqa: E402
+    CAMERA_FROM_TELEMETRY,
+    TelemetryImu,
+    TelemetryImuFile,
+    read_telemetry_imu,
+    recording_from_normalized,
+)
+
+needs_karma = pytest.mark.skipif(not KARMA.is_file(), reason="shared GoPro sample not available")
+
+
+def test_mapping_is_a_proper_rotation_and_interpolates_the_slower_accelerometer() -> None:
+    M = CAMERA_FROM_TELEMETRY
+    assert np.allclose(M @ M.T, np.eye(3)) and np.linalg.det(M) == pytest.approx(1.0)
+    # camera-frame truth: rates and specific force, expressed in the normalised axes the parser gives
+    tg = np.arange(400) / 400.0
+    w_cam = np.column_stack([np.sin(tg), 0.5 * np.cos(3 * tg), 0.2 * tg])  # rad/s
+    ta = np.arange(0, 400, 2) / 400.0  # accelerometer at half the rate
+    f_cam = np.column_stack([0.1 * ta, -9.81 + 0 * ta, 0.3 * np.ones_like(ta)])
+    rec = recording_from_normalized(tg, np.degrees(w_cam) @ M, ta, f_cam @ M)  # M.T v == v @ M
+    keep = tg <= ta[-1]
+    assert np.allclose(rec.t_s, tg[keep])
+    assert np.allclose(rec.gyroscope_rad_s, w_cam[keep], atol=1e-12)
+    assert np.allclose(rec.accelerometer_m_s2[:, 0], 0.1 * tg[keep], atol=1e-12)  # linear: exact interpolation
+    assert np.allclose(rec.accelerometer_m_s2[:, 1:], [-9.81, 0.3])
+    with pytest.raises(InvalidInputError, match="accelerometer"):
+        recording_from_normalized(tg, np.degrees(w_cam), ta[:1], f_cam[:1])
+
+
+def test_a_file_without_telemetry_is_a_one_line_error(tmp_path: Path) -> None:
+    bad = tmp_path / "notes.mp4"
+    bad.write_text("not a video\n")
+    with pytest.raises(InvalidInputError, match="no camera telemetry found") as exc:
+        read_telemetry_imu(bad)
+    assert "\n" not in str(exc.value)
+    with pytest.raises(InvalidInputError, match="no such file"):
+        read_telemetry_imu(tmp_path / "missing.mp4")
+
+
+@needs_karma
+def test_karma_gopro_reads_400_hz_gyro_and_gravity_down_the_image() -> None:
+    found = read_telemetry_imu(KARMA)
+    assert found.camera == "GoPro" and "HERO5" in found.model
+    assert not found.has_gravity_stream  # HERO5 writes no GRAV stream (HERO8 and later do)
+    assert 390 < found.gyro_rate_hz < 405 and 195 < found.accel_rate_hz < 205
+    rec = found.recording
+    assert 11.5 < rec.t_s[-1] - rec.t_s[0] < 12.5 and np.all(np.diff(rec.t_s) > 0)
+    # the gimbal keeps the camera level: specific force (gravity reaction, up) is along -y in camera axes
+    f = rec.accelerometer_m_s2.mean(axis=0)
+    assert f[1] < -9.0 and abs(f[0]) < 1.0 and abs(f[2]) < 1.0, f
+    with TelemetryImu("telemetry:" + str(KARMA), str(KARMA)) as live:  # the live source gives the same samples
+        assert isinstance(live, ImuSource)
+        (s,) = live.read().samples
+    assert s.t_s == rec.t_s[0] and s.gyroscope_rad_s is not None
+    assert np.allclose(s.gyroscope_rad_s, rec.gyroscope_rad_s[0])
+
+
+@needs_karma
+def test_karma_gyro_follows_the_visual_rotation_on_the_mapped_axes() -> None:
+    """The mapped gyro against walkmon's visual rotation of the same frames (independent measurement)."""
+    from walkmon.camera.model import default_camera
+    from walkmon.drivers.video_file import VideoFile
+    from walkmon.imu.extrinsics import estimate_extrinsics, visual_rates_rad_s
+    from walkmon.rotation import RotationEstimator
+
+    with VideoFile(str(KARMA)) as video:
+        est = RotationEstimator(default_camera(video.width_px, video.height_px))
+        results = [(t, est.push(frame, t)) for t, frame in video]
+    ft = np.array([t for t, _ in results])
+    R = np.array([e.rotation for _, e in results])
+    ok = np.array([e.status.is_measured for _, e in results])
+    rec = read_telemetry_imu(KARMA).recording
+    ext = estimate_extrinsics(rec.t_s, rec.gyroscope_rad_s, ft, R, ok)
+    assert ext.correlation > 0.98 and 0.0 <= ext.time_offset_s <= 0.1, ext.to_dict()
+    assert ext.rotation_deg < 8.0, ext.to_dict()  # a wrong permutation or sign would be 90-180 deg
+    a, b, w_vis = visual_rates_rad_s(ft, R, ok)
+    t = rec.t_s
+    cum = np.concatenate([np.zeros((1, 3)), np.cumsum(0.5 * (rec.gyroscope_rad_s[1:] + rec.gyroscope_rad_s[:-1])
+                                                      * np.diff(t)[:, None], axis=0)])
+    lo, hi = a - ext.time_offset_s, b - ext.time_offset_s
+    inside = (lo >= t[0]) & (hi <= t[-1])
+    w_imu = np.stack([(np.interp(hi[inside], t, cum[:, j]) - np.interp(lo[inside], t, cum[:, j]))
+                      / (hi - lo)[inside] for j in range(3)], axis=1)
+    corr = [np.corrcoef(w_imu[:, j], w_vis[inside, j])[0, 1] for j in range(3)]
+    assert corr[1] > 0.99, corr  # the pan (yaw) is the motion of this clip
+    assert corr[0] > 0.2 and corr[2] > 0.2, corr  # pitch and roll barely move (gimbal) but agree in sign
+
+
+@needs_karma
+def test_analyze_with_the_cameras_own_imu(tmp_path: Path) -> None:
+    out = tmp_path / "karma"
+    argv = ["analyze", str(KARMA), "--imu", f"telemetry:{KARMA}", "--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    info = json.loads((out / "imu.json").read_text())
+    assert info["telemetry"]["model"] == "HERO5 Black" and info["time_offset"].startswith("estimated")
+    assert 0.0 <= info["extrinsics_used"]["time_offset_s"] <= 0.1
+    cols = read_table(out / "angles.csv", ["t", "pitch_abs", "roll_abs"])
+    # no GRAV stream here; the camera hangs in a levelling gimbal: absolute angles within a few degrees of level
+    assert np.nanmax(np.abs(cols["pitch_abs"])) < 6 and np.nanmax(np.abs(cols["roll_abs"])) < 6
+
+
+def test_bad_telemetry_source_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["analyze", "--imu", f"telemetry:{tmp_path / 'none.mp4'}", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no such file" in err
+
+
+@pytest.fixture(scope="module")
+def walk(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from walkmon.simulate import simulate
+
+    d = tmp_path_factory.mktemp("embedded_imu_walk")
+    simulate(d, walk="normal", seconds=7.0, seed=3, width=320, height=240)
+    return d
+
+
+def test_simulated_embedded_imu_is_aligned_and_fused_within_0_2_deg(
+    walk: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A simulated camera whose IMU is stored like a GoPro's: normalised axes, gyro 200 Hz, accelerometer
+    100 Hz, clock 40 ms early. Through ``analyze --imu telemetry:...`` the fused start-relative angles stay
+    within 0.2 deg RMS of the simulator's truth on every axis, and the clock offset is found."""
+    import walkmon.drivers.telemetry_imu as tmod
+
+    imu = read_table(walk / "imu.csv", ["t", "gx", "gy", "gz", "ax", "ay", "az"])
+    M = CAMERA_FROM_TELEMETRY
+    t_tel = imu["t"] - 0.040  # telemetry clock: 40 ms before the video's
+    gyro_norm = np.degrees(np.column_stack([imu["gx"], imu["gy"], imu["gz"]])) @ M
+    acc_norm = np.column_stack([imu["ax"], imu["ay"], imu["az"]]) @ M
+    rec = recording_from_normalized(t_tel, gyro_norm, t_tel[::2], acc_norm[::2])
+    fake = TelemetryImuFile(recording=rec, camera="Simulated", model="embedded", has_gravity_stream=False,
+                            gyro_rate_hz=200.0, accel_rate_hz=100.0)
+    monkeypatch.setattr(tmod, "read_telemetry_imu", lambda path: fake)
+    out = tmp_path / "fused"
+    argv = ["analyze", str(walk / "video.mp4"), "--calib", str(walk / "camera.yaml"),
+            "--imu", f"telemetry:{walk / 'video.mp4'}", "--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    info = json.loads((out / "imu.json").read_text())
+    assert info["extrinsics_used"]["time_offset_s"] == pytest.approx(0.040, abs=0.004)
+    cols = read_table(out / "angles.csv", ["t", "pitch", "yaw", "roll", "pitch_abs", "roll_abs"])
+    truth = read_table(walk / "truth.csv", ["t", "pitch", "yaw", "roll"])
+    Rt = rotation_from_angles_deg(truth["pitch"], truth["yaw"], truth["roll"])
+    rel = angles_deg_from_rotation(Rt[0].T @ Rt)
+    est = np.column_stack([cols["pitch"], cols["yaw"], cols["roll"]])
+    err = np.sqrt(np.mean((est - rel[: len(est)]) ** 2, axis=0))
+    assert np.all(err <= 0.2), err
+    # absolute pitch/roll against gravity: the simulator's world y is down, so its pitch/roll are absolute
+    from walkmon.consts import gravity_angles_deg_from_gravity
+
+    g_true = gravity_angles_deg_from_gravity(Rt[: len(est), 1, :])  # world down (0,1,0) in camera axes
+    abs_err = np.abs(np.column_stack([cols["pitch_abs"], cols["roll_abs"]]) - g_true)
+    assert np.nanmax(abs_err[30:]) < 1.0, np.nanmax(abs_err, axis=0)  # after the first second
+
+
+def test_live_source_url_opens_the_telemetry_reader(tmp_path: Path) -> None:
+    from walkmon.drivers.sources import open_imu
+    from walkmon.errors import ConfigError, SourceError
+
+    src = open_imu(f"telemetry:{tmp_path / 'x.mp4'}?realtime=0")
+    assert isinstance(src, TelemetryImu) and not src.realtime
+    with pytest.raises(SourceError, match="no such file"):
+        src.open()
+    with pytest.raises(ConfigError):
+        open_imu("telemetry:")
