@@ -614,11 +614,10 @@ def analyze(
         if imu is not None:  # camera-IMU fusion: fused pitch/yaw/roll, + pitch_abs/roll_abs, *_video kept
             columns, imu_info = _fused_columns(columns, estimates, imu, imu_offset_s, imu_extrinsics, imu_filter, imu_calib)
             from walkmon.gait.session import ImuInput  # noqa: PLC0415
-            from walkmon.tables import read_imu_csv  # noqa: PLC0415
-
-            rec = read_imu_csv(imu)  # the raw samples for steps and activity, on the frames' time base
-            imu_input = ImuInput(rec.t_s + float(imu_offset_s) - estimates[0].t_s, rec.accelerometer_m_s2,
-                                 rec.gyroscope_rad_s)
+            rec, _ = _read_imu(imu)  # the raw samples for steps and activity, on the frames' time base
+            used = (imu_info.get("extrinsics_used") or {}).get("time_offset_s")  # given, or estimated (telemetry)
+            offset = float(used if used is not None else imu_offset_s or 0.0)
+            imu_input = ImuInput(rec.t_s + offset - estimates[0].t_s, rec.accelerometer_m_s2, rec.gyroscope_rad_s)
         precision = dict(_PRECISION)
         source = str(video)
     no_yaw = bool(imu_info is not None and imu_info.get("mode") == "accelerometer_only")
