@@ -638,9 +638,11 @@ def _analyze_walkmon(
     detrended_span = np.zeros_like(corrected)
     detrended_span[i0:i1], _ = detrend_least_squares(t[i0:i1], corrected[i0:i1])
     windowed, spectra, peaks, step = _spectra(detrended_span, fs, settings, (i0, i1))
+    waves = _Waveforms(t, raw, trend, corrected, corrected, windowed, (i0, i1), fs)
+    stance = _Stance(start, end, ref0, drift)
     if not step.found:
-        return _finish(t, raw, trend, corrected, corrected, windowed, (i0, i1), spectra, peaks, {}, {},
-                       settings, duration, walking_s, float("nan"), IndicatorStatus.NO_GAIT, start, end, ref0, drift, fs)
+        no_gait = _Found(spectra, peaks, walking_s, _NAN, IndicatorStatus.NO_GAIT)
+        return _finish(waves, no_gait, stance, settings, duration)
     f_step = step.frequency_hz
     smoothed = _lowpass(corrected, settings.lowpass_factor * f_step, fs) if settings.lowpass_factor > 0 else corrected
     maxima, minima = {}, {}
@@ -649,8 +651,8 @@ def _analyze_walkmon(
         maxima[axis], minima[axis] = cycle_extremums(
             smoothed[:, k], round(settings.min_cycle_fraction * period * fs), i0, i1
         )
-    return _finish(t, raw, trend, corrected, smoothed, windowed, (i0, i1), spectra, peaks, maxima, minima,
-                   settings, duration, walking_s, 60.0 * f_step, IndicatorStatus.OK, start, end, ref0, drift, fs)
+    found = _Found(spectra, peaks, walking_s, 60.0 * f_step, IndicatorStatus.OK, maxima, minima)
+    return _finish(replace(waves, smoothed=smoothed), found, stance, settings, duration)
 
 
 def _analyze_paper(t: NDArray, raw: NDArray, fs: float, settings: IndicatorSettings, duration: float) -> GaitAnalysis:
@@ -661,8 +663,8 @@ def _analyze_paper(t: NDArray, raw: NDArray, fs: float, settings: IndicatorSetti
     walking_s = float(np.sum(keep)) / fs
     if walking_s < settings.min_walking_s or not step.found:
         status = IndicatorStatus.TOO_SHORT if walking_s < settings.min_walking_s else IndicatorStatus.NO_GAIT
-        return _finish(t, raw, trend, corrected, corrected, windowed, (0, n), spectra, peaks, {}, {}, settings,
-                       duration, walking_s, float("nan"), status, None, None, np.zeros(3), np.zeros(3), fs)
+        waves = _Waveforms(t, raw, trend, corrected, corrected, windowed, (0, n), fs)
+        return _finish(waves, _Found(spectra, peaks, walking_s, _NAN, status), _no_stance(), settings, duration)
     maxima, minima = {}, {}
     for k, axis in enumerate(AXES):
         f_axis = peaks[axis] if np.isfinite(peaks[axis]) else step.frequency_hz / STEP_FACTOR_BY_AXIS[axis]
@@ -670,15 +672,61 @@ def _analyze_paper(t: NDArray, raw: NDArray, fs: float, settings: IndicatorSetti
             corrected[:, k], round(settings.min_cycle_fraction * fs / f_axis), keep
         )
     idx = np.flatnonzero(keep)
-    return _finish(t, raw, trend, corrected, corrected, windowed, (int(idx[0]), int(idx[-1]) + 1), spectra, peaks,
-                   maxima, minima, settings, duration, walking_s, 60.0 * step.frequency_hz, IndicatorStatus.OK,
-                   None, None, np.zeros(3), np.zeros(3), fs)
+    waves = _Waveforms(t, raw, trend, corrected, corrected, windowed, (int(idx[0]), int(idx[-1]) + 1), fs)
+    found = _Found(spectra, peaks, walking_s, 60.0 * step.frequency_hz, IndicatorStatus.OK, maxima, minima)
+    return _finish(waves, found, _no_stance(), settings, duration)
+
+
+@dataclass(frozen=True, slots=True)
+class _Waveforms:
+    """The analysis's waveforms (rows of ``t``) and the span of the walk they were measured on."""
+
+    t: NDArray
+    raw: NDArray
+    trend: NDArray
+    corrected: NDArray
+    #: the waveform the cycles are found on (low-passed, or ``corrected`` itself)
+    smoothed: NDArray
+    windowed: NDArray
+    span: tuple[int, int]
+    fs: float
+
+
+@dataclass(frozen=True, slots=True)
+class _Stance:
+    """The standing stances found (row spans, or None), the upright reference and the drift removed."""
+
+    start: tuple[int, int] | None
+    end: tuple[int, int] | None
+    ref0: NDArray
+    drift: NDArray
+
+
+def _no_stance() -> _Stance:
+    """No stance searched (the paper's mode): no reference, no drift."""
+    return _Stance(None, None, np.zeros(3), np.zeros(3))
+
+
+@dataclass(frozen=True, slots=True)
+class _Found:
+    """What the analysis found: spectra and peaks per axis, the walk's duration and cadence, its status and the
+    cycles' extremums per axis (none when no gait was found)."""
+
+    spectra: dict[str, Any]
+    peaks: dict[str, float]
+    walking_s: float
+    cadence_spm: float
+    status: IndicatorStatus
+    maxima: dict[str, NDArray] = field(default_factory=dict)
+    minima: dict[str, NDArray] = field(default_factory=dict)
 
 
 def _finish(
-    t, raw, trend, corrected, smoothed, windowed, span, spectra, peaks, maxima, minima, settings, duration,
-    walking_s, cadence_spm, status, start, end, ref0, drift, fs,
-) -> GaitAnalysis:  # noqa: ANN001 - internal
+    waves: _Waveforms, found: _Found, stance: _Stance, settings: IndicatorSettings, duration: float
+) -> GaitAnalysis:
+    t, smoothed, span, fs = waves.t, waves.smoothed, waves.span, waves.fs
+    peaks, maxima, minima, status = found.peaks, found.maxima, found.minima, found.status
+    start, end, ref0, drift = stance.start, stance.end, stance.ref0, stance.drift
     axes = {}
     empty = np.zeros(0, np.intp)
     for k, axis in enumerate(AXES):
@@ -691,9 +739,9 @@ def _finish(
     if status is IndicatorStatus.OK and all(axes[a].n_cycles == 0 for a in AXES):
         status = IndicatorStatus.NO_GAIT
     ind = Indicators(
-        cadence_spm=float(cadence_spm),
+        cadence_spm=float(found.cadence_spm),
         duration_s=duration,
-        walking_s=walking_s,
+        walking_s=found.walking_s,
         axes=axes,
         asymmetry=asym,
         status=status,
@@ -707,13 +755,13 @@ def _finish(
     return GaitAnalysis(
         indicators=ind,
         t_s=_frozen(t),
-        raw_deg=_frozen(raw),
-        trend_deg=_frozen(trend),
-        corrected_deg=_frozen(corrected),
+        raw_deg=_frozen(waves.raw),
+        trend_deg=_frozen(waves.trend),
+        corrected_deg=_frozen(waves.corrected),
         smoothed_deg=_frozen(smoothed),
-        windowed_deg=_frozen(windowed),
+        windowed_deg=_frozen(waves.windowed),
         analysis_span=span,
-        spectra={a: (_frozen(f), _frozen(m)) for a, (f, m) in spectra.items()},
+        spectra={a: (_frozen(f), _frozen(m)) for a, (f, m) in found.spectra.items()},
         peak_hz=dict(peaks),
         maxima_idx={a: _frozen(v) for a, v in maxima.items()},
         minima_idx={a: _frozen(v) for a, v in minima.items()},

@@ -360,82 +360,15 @@ def analyze_session(
         stand = None
     else:
         ref, ref_source, stand = _upright(t, a, seg, absd, s)
-    # heading-free inclinations: gravity's pitch/roll with an IMU, else the tilt from the upright pose
-    if has_abs:
-        assert absd is not None  # has_abs
-        ok = np.isfinite(absd).all(axis=1)
-        gp = np.interp(t, t[ok], absd[ok, 0])
-        gr = np.interp(t, t[ok], absd[ok, 1])
-        # the upright pose in gravity angles: the standing phase's, or level
-        up_abs = np.zeros(2)
-        if stand is not None:
-            m = (t >= stand[0]) & (t <= stand[1])
-            up_abs = np.array([np.median(gp[m]), np.median(gr[m])])
-        a = slow_offset(t, a, np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]]))
-        ref_out = up_abs
-    else:
-        a = heading_free_angles(t, a, ref)
-        ref_out = ref[[0, 2]]
-        if stand is not None:
-            a, drift = _remove_drift(t, a, seg, stand, s)
-            if drift is not None:
-                ref_source += f"; drift {drift[0]:+.2f} / {drift[1]:+.2f} deg (pitch / roll) removed up to the last " \
-                              "standing phase"
+    a, ref_out, ref_source = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s)
     ref_zero = np.zeros(3)
-    seg_docs: list[dict[str, Any]] = []
-    bout_docs: list[dict[str, Any]] = []
-    weighted: list[tuple[float, Indicators]] = []
-    label_time: dict[str, float] = {}
-    for b in seg.bouts:
-        inside = []
-        for p0, p1 in _pieces(b, seg.turns, s):
-            m = (t >= p0) & (t <= p1)
-            cuts = change_points(t[m], a[m], s)
-            edges = [p0, *cuts, p1]
-            for q0, q1 in zip(edges[:-1], edges[1:], strict=True):
-                ind, doc = span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base)
-                if no_yaw:
-                    doc["axes"]["yaw"] = None
-                seg_docs.append(doc)
-                inside.append((q1 - q0, ind))
-                label_time[doc["label"]] = label_time.get(doc["label"], 0.0) + (q1 - q0)
-        weighted += inside
-        axes = _weighted_axes(inside)
-        labels: dict[str, float] = {}
-        for w, i in inside:
-            labels[i.classification.label] = labels.get(i.classification.label, 0.0) + w
-        label = max(labels, key=labels.__getitem__) if labels else "unclassified"
-        reasons = ([f"{lab} over {w:.1f} s of {sum(labels.values()):.1f} s of straight walking" for lab, w in
-                    sorted(labels.items(), key=lambda kv: -kv[1])] if labels else
-                   ["no straight walking of at least "
-                    f"{s.min_piece_s:g} s between turns: not labelled"])
-        bout_docs.append({
-            "start_s": _num(b.start_s, 3), "end_s": _num(b.end_s, 3), "activity": "walking",
-            "n_steps": b.n_steps, "cadence_spm": _num(b.cadence_spm, 2),
-            "spectral_cadence_spm": _num(b.spectral_cadence_spm, 2),
-            "n_turns": sum(1 for u in seg.turns if u.end_s > b.start_s and u.start_s < b.end_s),
-            "axes": {ax: (None if no_yaw and ax == "yaw" else axes[ax].to_dict()) for ax in AXES},
-            "label": label, "reasons": reasons,
-        })
+    seg_docs, bout_docs, weighted, label_time = _bouts(t, a, seg, sig, ref_zero, settings, base, s, no_yaw=no_yaw)
     walking_s = seg.walking_s
     cad = [(b.duration_s, b.cadence_spm) for b in seg.bouts if math.isfinite(b.cadence_spm)]
     cadence = (sum(w * c for w, c in cad) / sum(w for w, _ in cad)) if cad and sum(w for w, _ in cad) > 0 \
         else float("nan")
     axes = _weighted_axes(weighted)
-    total_labelled = sum(label_time.values())
-    if label_time:
-        dominant = max(label_time, key=label_time.__getitem__)
-        share = label_time[dominant] / total_labelled
-        dom_reasons = [f"{dominant} over {100 * share:.0f} % of the labelled walking time "
-                       f"({label_time[dominant]:.1f} of {total_labelled:.1f} s)"]
-        longest = max((d for d in seg_docs if d["label"] == dominant),
-                      key=lambda d: (d["end_s"] or 0) - (d["start_s"] or 0))
-        dom_reasons += longest["reasons"]
-        cls = Classification(dominant, tuple(dom_reasons))
-    else:
-        dominant, share = "unclassified", float("nan")
-        why = "no walking bout" if not seg.bouts else "no straight walking segment long enough to measure"
-        cls = Classification("unclassified", (why,))
+    dominant, share, cls = _dominant(label_time, seg_docs, seg)
     asym = _weighted_asym(weighted)
     activity = _not_upright_is_unknown(np.asarray(seg.activity, dtype=object), seg.timeline_t_s, t, a, s)
     seg = replace(seg, activity=tuple(str(v) for v in activity))
@@ -472,6 +405,104 @@ def analyze_session(
         session=session,
     )
     return SessionAnalysis(ind, seg, ref, ref_source, tuple(seg_docs), rows)
+
+
+def _heading_free(
+    t: NDArray, a: NDArray, absd: NDArray | None, ref: NDArray, ref_source: str, stand: tuple[float, float] | None,
+    seg: Segmentation, s: SessionSettings,
+) -> tuple[NDArray, NDArray, str]:
+    """Heading-free inclinations: gravity's pitch/roll with an IMU (``absd``, when mostly finite), else the tilt
+    from the upright pose (drift removed up to the last standing phase). Returns the angles, the upright
+    pitch/roll they are relative to, and the reference's source text."""
+    if absd is not None:
+        ok = np.isfinite(absd).all(axis=1)
+        gp = np.interp(t, t[ok], absd[ok, 0])
+        gr = np.interp(t, t[ok], absd[ok, 1])
+        # the upright pose in gravity angles: the standing phase's, or level
+        up_abs = np.zeros(2)
+        if stand is not None:
+            m = (t >= stand[0]) & (t <= stand[1])
+            up_abs = np.array([np.median(gp[m]), np.median(gr[m])])
+        a = slow_offset(t, a, np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]]))
+        return a, up_abs, ref_source
+    a = heading_free_angles(t, a, ref)
+    ref_out = ref[[0, 2]]
+    if stand is not None:
+        a, drift = _remove_drift(t, a, seg, stand, s)
+        if drift is not None:
+            ref_source += f"; drift {drift[0]:+.2f} / {drift[1]:+.2f} deg (pitch / roll) removed up to the last " \
+                          "standing phase"
+    return a, ref_out, ref_source
+
+
+def _bouts(
+    t: NDArray, a: NDArray, seg: Segmentation, sig: TrunkSignals, ref_zero: NDArray, settings: IndicatorSettings,
+    base: Mapping[str, Any] | None, s: SessionSettings, *, no_yaw: bool,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[tuple[float, Indicators]], dict[str, float]]:
+    """Each walking bout cut into straight pieces (between turns) and posture segments (at change points):
+    the segments' documents, the bouts' documents, the (duration, indicators) of every segment and the time
+    per posture label."""
+    seg_docs: list[dict[str, Any]] = []
+    bout_docs: list[dict[str, Any]] = []
+    weighted: list[tuple[float, Indicators]] = []
+    label_time: dict[str, float] = {}
+    for b in seg.bouts:
+        inside = []
+        for p0, p1 in _pieces(b, seg.turns, s):
+            m = (t >= p0) & (t <= p1)
+            cuts = change_points(t[m], a[m], s)
+            edges = [p0, *cuts, p1]
+            for q0, q1 in zip(edges[:-1], edges[1:], strict=True):
+                ind, doc = span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base)
+                if no_yaw:
+                    doc["axes"]["yaw"] = None
+                seg_docs.append(doc)
+                inside.append((q1 - q0, ind))
+                label_time[doc["label"]] = label_time.get(doc["label"], 0.0) + (q1 - q0)
+        weighted += inside
+        bout_docs.append(_bout_doc(b, inside, seg, s, no_yaw=no_yaw))
+    return seg_docs, bout_docs, weighted, label_time
+
+
+def _bout_doc(
+    b: Any, inside: list[tuple[float, Indicators]], seg: Segmentation, s: SessionSettings, *, no_yaw: bool
+) -> dict[str, Any]:
+    """One walking bout's document: its steps, turns, indicators over its segments and its dominant label."""
+    axes = _weighted_axes(inside)
+    labels: dict[str, float] = {}
+    for w, i in inside:
+        labels[i.classification.label] = labels.get(i.classification.label, 0.0) + w
+    label = max(labels, key=labels.__getitem__) if labels else "unclassified"
+    reasons = ([f"{lab} over {w:.1f} s of {sum(labels.values()):.1f} s of straight walking" for lab, w in
+                sorted(labels.items(), key=lambda kv: -kv[1])] if labels else
+               ["no straight walking of at least "
+                f"{s.min_piece_s:g} s between turns: not labelled"])
+    return {
+        "start_s": _num(b.start_s, 3), "end_s": _num(b.end_s, 3), "activity": "walking",
+        "n_steps": b.n_steps, "cadence_spm": _num(b.cadence_spm, 2),
+        "spectral_cadence_spm": _num(b.spectral_cadence_spm, 2),
+        "n_turns": sum(1 for u in seg.turns if u.end_s > b.start_s and u.start_s < b.end_s),
+        "axes": {ax: (None if no_yaw and ax == "yaw" else axes[ax].to_dict()) for ax in AXES},
+        "label": label, "reasons": reasons,
+    }
+
+
+def _dominant(
+    label_time: dict[str, float], seg_docs: list[dict[str, Any]], seg: Segmentation
+) -> tuple[str, float, Classification]:
+    """The session's label: the posture of the most walking time, with its share and reasons."""
+    total_labelled = sum(label_time.values())
+    if label_time:
+        dominant = max(label_time, key=label_time.__getitem__)
+        share = label_time[dominant] / total_labelled
+        dom_reasons = [f"{dominant} over {100 * share:.0f} % of the labelled walking time "
+                       f"({label_time[dominant]:.1f} of {total_labelled:.1f} s)"]
+        longest = max((d for d in seg_docs if d["label"] == dominant),
+                      key=lambda d: (d["end_s"] or 0) - (d["start_s"] or 0))
+        dom_reasons += longest["reasons"]
+        return dominant, share, Classification(dominant, tuple(dom_reasons))
+    why = "no walking bout" if not seg.bouts else "no straight walking segment long enough to measure"
+    return "unclassified", float("nan"), Classification("unclassified", (why,))
 
 
 def _not_upright_is_unknown(

@@ -178,6 +178,22 @@ class _Grabbed:
     grabbed_s: float
 
 
+@dataclass(slots=True)
+class _RunState:
+    """What :meth:`LivePipeline.run` counts while it runs (its steps update it)."""
+
+    wall0: float
+    hops: int = 0
+    alerts_raised: int = 0
+    n_frames: int = 0
+    first_t: float = math.nan
+    last_t: float = math.nan
+    last_angles: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    #: before the first frame: TimeoutStartSec's business
+    last_frame_mono: float | None = None
+    fps_window: collections.deque[float] = dataclasses.field(default_factory=lambda: collections.deque(maxlen=61))
+
+
 def _angles(estimate: Any) -> tuple[float, float, float]:
     a = getattr(estimate, "angles_deg", None)
     if a is None:
@@ -538,100 +554,13 @@ class LivePipeline:
             msg = "this pipeline already ran; make a new one"
             raise RuntimeError(msg)
         self._started = True
-        wall0 = time.monotonic()
+        st = _RunState(wall0=time.monotonic())
         threads: list[threading.Thread] = []
         error: BaseException | None = None
-        hops = alerts_raised = n_frames = 0
-        first_t = last_t = math.nan
         self._writer.start()
         try:
-            if self.imu is not None:
-                # opened first: a replayed IMU (file:...?realtime=1) then starts its clock before the camera's
-                # and is never behind the frames (the loop would wait for it, adding latency)
-                self.imu.open()
-                threads.append(threading.Thread(target=self._imu_reader, name="walkmon-imu", daemon=True))
-            self.camera.open()
-            estimator = self._estimator_factory(self.camera)
-            threads.insert(0, threading.Thread(target=self._grabber, name="walkmon-grabber", daemon=True))
-            for th in threads:
-                th.start()
-            self.notifier.status(f"waiting for frames from {self.camera.url}")
-            fps_window: collections.deque[float] = collections.deque(maxlen=61)
-            last_angles = (math.nan, math.nan, math.nan)
-            last_frame_mono: float | None = None  # before the first frame: TimeoutStartSec's business
-            while not self._stop.is_set():
-                self._watchdog(last_frame_mono)
-                if duration_s is not None and time.monotonic() - wall0 >= duration_s:
-                    self._end_reason = self._end_reason or f"duration {duration_s:g} s reached"
-                    break
-                if self._calibrate.is_set():
-                    self._calibrate.clear()
-                    self.indicators.request_calibration()
-                    _log.info("upright calibration requested: stand still and upright")
-                try:
-                    item = self.queue.get(_GET_TIMEOUT_S)
-                except QueueClosed:
-                    break
-                if item is None:
-                    if self.imu is not None and getattr(self.imu, "live", True):
-                        self._drain_imu(math.inf)
-                    continue
-                frame = item.frame
-                if self.imu is not None:
-                    self._drain_imu(float(frame.t_s))
-                    self._log_imu_rejections()
-                estimate = estimator.push(frame.image, frame.t_s)
-                abs_angles: tuple[float, float] | None = None
-                if self.fusion is not None:
-                    status = getattr(estimate, "status", None)
-                    fused = self.fusion.push_frame(frame.t_s, _rotation(estimate),
-                                                   bool(getattr(status, "is_measured", True)))
-                    angles, abs_angles = fused.angles_deg, fused.abs_angles_deg
-                    self._fusion_mode = fused.mode if fused.mode == "fused" else f"camera:{fused.reason}"
-                    if not all(math.isfinite(v) for v in angles):  # never NULL angles from the fusion
-                        self._fusion_invalid += 1
-                        angles, abs_angles = _angles(estimate), (math.nan, math.nan)
-                        self._fusion_mode = "camera:fusion_invalid"
-                else:
-                    angles = _angles(estimate)
-                done = time.monotonic()
-                latency_ms = (done - item.grabbed_s) * 1000.0
-                self.latency.add(latency_ms)
-                last_angles = angles
-                if math.isnan(first_t):
-                    first_t = frame.t_s
-                    self.notifier.ready(f"monitoring {self.camera.url}")
-                last_t = frame.t_s
-                last_frame_mono = done
-                fps_window.append(frame.t_s)
-                n_frames += 1
-                self._writer.call(setattr, self.log, "n_dropped", self.queue.dropped)
-                self._writer.call(self.log.add_frame, frame.t_s, angles,
-                                  int(getattr(estimate, "n_inliers", -1) or -1),
-                                  str(getattr(estimate, "model", "") or ""),
-                                  _status_text(getattr(estimate, "status", None)), latency_ms, abs_angles,
-                                  None if self.fusion is None else self._fusion_mode == "fused")
-                if self.on_frame is not None:
-                    self.on_frame(FrameResult(frame.t_s, angles, latency_ms, estimate, frame.truth_angles_deg,
-                                              abs_angles, self._fusion_mode))
-                ind = self.indicators.push(frame.t_s, angles)
-                if ind is None:
-                    continue
-                hops += 1
-                events = self.alerts.push(ind)
-                fusion_counters = self._fusion_counters()
-                self._writer.call(self.log.add_hop, ind, None if fusion_counters is None else {"fusion": fusion_counters})
-                for ev in events:
-                    self._writer.call(self.log.add_alert, ev)
-                    alerts_raised += ev.state == "raised"
-                if events and self.sinks is not None:
-                    self.sinks.deliver(events)
-                fps = ((len(fps_window) - 1) / (fps_window[-1] - fps_window[0])
-                       if len(fps_window) > 1 and fps_window[-1] > fps_window[0] else math.nan)
-                if self.on_hop is not None:
-                    self.on_hop(HopReport(ind, tuple(events), self.alerts.active, n_frames,
-                                          self.queue.dropped, fps, self.latency.percentile(99), last_angles,
-                                          time.monotonic() - wall0, fusion_counters))
+            estimator = self._start_session(threads)
+            self._loop(estimator, st, duration_s)
             if not self._end_reason:
                 self._end_reason = "source ended" if self.queue.closed else "stopped"
         except BaseException as exc:
@@ -639,62 +568,181 @@ class LivePipeline:
             self._end_reason = f"error: {exc}" if not isinstance(exc, KeyboardInterrupt) else "interrupted"
             raise
         finally:
-            self._stop.set()
-            self.notifier.stopping()
-            for th in threads:
-                th.join(_JOIN_TIMEOUT_S)
-                if th.is_alive():
-                    _log.error("thread %s did not stop within %.0f s", th.name, _JOIN_TIMEOUT_S)
-            self.camera.close()
-            if self.imu is not None:
-                self.imu.close()
-                self._drain_imu()
-            # alerts still raised when the session ends are cleared in the log (and told to the sinks)
-            closing = self.alerts.close(last_t if math.isfinite(last_t) else 0.0)
-            for ev in closing:
-                self._writer.call(self.log.add_alert, ev)
-            if self.sinks is not None:
-                if closing:
-                    try:
-                        self.sinks.deliver(closing)
-                    except Exception:  # a sink must not hide why the session ended
-                        _log.exception("delivering the session-end alert clears failed")
-                self.sinks.close()
-            if self._thread_errors and error is None:
-                self._end_reason = f"error: {self._thread_errors[0]}"
-            self._writer.stop(_JOIN_TIMEOUT_S + 10.0)
-            self.log.n_dropped = self.queue.dropped
-            if self._writer.dropped_calls:
-                _log.error("session log fell behind: %d writes dropped", self._writer.dropped_calls)
+            self._close_session(threads, st, error)
+        self._raise_thread_error()
+        return self._result(st)
+
+    def _start_session(self, threads: list[threading.Thread]) -> Estimator:
+        """Open the IMU and the camera, make the estimator and start the threads (appended to ``threads`` as
+        they are made, so the session's closing joins whatever was made even when a later step fails)."""
+        if self.imu is not None:
+            # opened first: a replayed IMU (file:...?realtime=1) then starts its clock before the camera's
+            # and is never behind the frames (the loop would wait for it, adding latency)
+            self.imu.open()
+            threads.append(threading.Thread(target=self._imu_reader, name="walkmon-imu", daemon=True))
+        self.camera.open()
+        estimator = self._estimator_factory(self.camera)
+        threads.insert(0, threading.Thread(target=self._grabber, name="walkmon-grabber", daemon=True))
+        for th in threads:
+            th.start()
+        self.notifier.status(f"waiting for frames from {self.camera.url}")
+        return estimator
+
+    def _loop(self, estimator: Estimator, st: _RunState, duration_s: float | None) -> None:
+        """The processing loop: until ``stop()``, ``duration_s`` or the frame queue closing."""
+        while not self._stop.is_set():
+            self._watchdog(st.last_frame_mono)
+            if duration_s is not None and time.monotonic() - st.wall0 >= duration_s:
+                self._end_reason = self._end_reason or f"duration {duration_s:g} s reached"
+                break
+            if self._calibrate.is_set():
+                self._calibrate.clear()
+                self.indicators.request_calibration()
+                _log.info("upright calibration requested: stand still and upright")
             try:
-                if self.log.n_frames == 0 and (error is not None or self._thread_errors) \
-                        and not isinstance(error, KeyboardInterrupt):
-                    # the start failed (camera missing, IMU unreadable): no frame was recorded, so no session
-                    self.log.discard(self._end_reason)
-                else:
-                    self.log.close(self._end_reason, meta={
-                        "log_writes_dropped": self._writer.dropped_calls,
-                        "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
-                        "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows,
-                        **({} if self.imu is None else {"imu_rejected": self._imu_rejected()}),
-                        **({} if self.fusion is None else {"fusion": self._fusion_counters()})})
-            except Exception:  # a broken database must not hide why the session ended
-                _log.exception("closing the session log failed")
+                item = self.queue.get(_GET_TIMEOUT_S)
+            except QueueClosed:
+                break
+            if item is None:
+                if self.imu is not None and getattr(self.imu, "live", True):
+                    self._drain_imu(math.inf)
+                continue
+            self._process_frame(estimator, item, st)
+
+    def _frame_angles(self, frame: Any, estimate: Any) -> tuple[tuple[float, float, float], tuple[float, float] | None]:
+        """The frame's angles (fused with an IMU, else the camera's) and the fusion's absolute ones."""
+        if self.fusion is None:
+            return _angles(estimate), None
+        status = getattr(estimate, "status", None)
+        fused = self.fusion.push_frame(frame.t_s, _rotation(estimate), bool(getattr(status, "is_measured", True)))
+        angles, abs_angles = fused.angles_deg, fused.abs_angles_deg
+        self._fusion_mode = fused.mode if fused.mode == "fused" else f"camera:{fused.reason}"
+        if not all(math.isfinite(v) for v in angles):  # never NULL angles from the fusion
+            self._fusion_invalid += 1
+            angles, abs_angles = _angles(estimate), (math.nan, math.nan)
+            self._fusion_mode = "camera:fusion_invalid"
+        return angles, abs_angles
+
+    def _process_frame(self, estimator: Estimator, item: _Grabbed, st: _RunState) -> None:
+        """One frame: IMU up to its time, estimate, angles, counters, session log, ``on_frame``, indicators."""
+        frame = item.frame
+        if self.imu is not None:
+            self._drain_imu(float(frame.t_s))
+            self._log_imu_rejections()
+        estimate = estimator.push(frame.image, frame.t_s)
+        angles, abs_angles = self._frame_angles(frame, estimate)
+        done = time.monotonic()
+        latency_ms = (done - item.grabbed_s) * 1000.0
+        self.latency.add(latency_ms)
+        st.last_angles = angles
+        if math.isnan(st.first_t):
+            st.first_t = frame.t_s
+            self.notifier.ready(f"monitoring {self.camera.url}")
+        st.last_t = frame.t_s
+        st.last_frame_mono = done
+        st.fps_window.append(frame.t_s)
+        st.n_frames += 1
+        self._writer.call(setattr, self.log, "n_dropped", self.queue.dropped)
+        self._writer.call(self.log.add_frame, frame.t_s, angles,
+                          int(getattr(estimate, "n_inliers", -1) or -1),
+                          str(getattr(estimate, "model", "") or ""),
+                          _status_text(getattr(estimate, "status", None)), latency_ms, abs_angles,
+                          None if self.fusion is None else self._fusion_mode == "fused")
+        if self.on_frame is not None:
+            self.on_frame(FrameResult(frame.t_s, angles, latency_ms, estimate, frame.truth_angles_deg,
+                                      abs_angles, self._fusion_mode))
+        ind = self.indicators.push(frame.t_s, angles)
+        if ind is not None:
+            self._hop(ind, st)
+
+    def _hop(self, ind: LiveIndicators, st: _RunState) -> None:
+        """One hop of the indicators: alerts, session log, sinks, ``on_hop``."""
+        st.hops += 1
+        events = self.alerts.push(ind)
+        fusion_counters = self._fusion_counters()
+        self._writer.call(self.log.add_hop, ind, None if fusion_counters is None else {"fusion": fusion_counters})
+        for ev in events:
+            self._writer.call(self.log.add_alert, ev)
+            st.alerts_raised += ev.state == "raised"
+        if events and self.sinks is not None:
+            self.sinks.deliver(events)
+        w = st.fps_window
+        fps = (len(w) - 1) / (w[-1] - w[0]) if len(w) > 1 and w[-1] > w[0] else math.nan
+        if self.on_hop is not None:
+            self.on_hop(HopReport(ind, tuple(events), self.alerts.active, st.n_frames,
+                                  self.queue.dropped, fps, self.latency.percentile(99), st.last_angles,
+                                  time.monotonic() - st.wall0, fusion_counters))
+
+    def _close_session(self, threads: list[threading.Thread], st: _RunState, error: BaseException | None) -> None:
+        """On every path out of :meth:`run`: stop the threads, close the sources, clear the alerts, close the log."""
+        self._stop.set()
+        self.notifier.stopping()
+        for th in threads:
+            th.join(_JOIN_TIMEOUT_S)
+            if th.is_alive():
+                _log.error("thread %s did not stop within %.0f s", th.name, _JOIN_TIMEOUT_S)
+        self.camera.close()
+        if self.imu is not None:
+            self.imu.close()
+            self._drain_imu()
+        self._close_alerts(st.last_t)
+        if self._thread_errors and error is None:
+            self._end_reason = f"error: {self._thread_errors[0]}"
+        self._writer.stop(_JOIN_TIMEOUT_S + 10.0)
+        self.log.n_dropped = self.queue.dropped
+        if self._writer.dropped_calls:
+            _log.error("session log fell behind: %d writes dropped", self._writer.dropped_calls)
+        self._close_log(error)
+
+    def _close_alerts(self, last_t: float) -> None:
+        """Alerts still raised when the session ends are cleared in the log (and told to the sinks)."""
+        closing = self.alerts.close(last_t if math.isfinite(last_t) else 0.0)
+        for ev in closing:
+            self._writer.call(self.log.add_alert, ev)
+        if self.sinks is not None:
+            if closing:
+                try:
+                    self.sinks.deliver(closing)
+                except Exception:  # a sink must not hide why the session ended
+                    _log.exception("delivering the session-end alert clears failed")
+            self.sinks.close()
+
+    def _close_log(self, error: BaseException | None) -> None:
+        """Close the session log with its meta, or discard a session whose start failed."""
+        try:
+            if self.log.n_frames == 0 and (error is not None or self._thread_errors) \
+                    and not isinstance(error, KeyboardInterrupt):
+                # the start failed (camera missing, IMU unreadable): no frame was recorded, so no session
+                self.log.discard(self._end_reason)
+            else:
+                self.log.close(self._end_reason, meta={
+                    "log_writes_dropped": self._writer.dropped_calls,
+                    "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
+                    "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows,
+                    **({} if self.imu is None else {"imu_rejected": self._imu_rejected()}),
+                    **({} if self.fusion is None else {"fusion": self._fusion_counters()})})
+        except Exception:  # a broken database must not hide why the session ended
+            _log.exception("closing the session log failed")
+
+    def _raise_thread_error(self) -> None:
+        """Re-raise in the caller the first exception of a pipeline thread (a WalkmonError as it is)."""
         if self._thread_errors:
             exc0 = self._thread_errors[0]
             if isinstance(exc0, WalkmonError):
                 raise exc0
             msg = f"a pipeline thread failed: {exc0!r}"
             raise WalkmonError(msg) from exc0
+
+    def _result(self, st: _RunState) -> PipelineResult:
         return PipelineResult(
             session_id=self.log.session_id,
             end_reason=self._end_reason,
             frames=self.log.n_frames,
             dropped=self.queue.dropped,
-            hops=hops,
-            alerts_raised=alerts_raised,
-            duration_s=0.0 if math.isnan(first_t) else float(last_t - first_t),
-            wall_s=time.monotonic() - wall0,
+            hops=st.hops,
+            alerts_raised=st.alerts_raised,
+            duration_s=0.0 if math.isnan(st.first_t) else float(st.last_t - st.first_t),
+            wall_s=time.monotonic() - st.wall0,
             latency_p50_ms=self.latency.percentile(50),
             latency_p99_ms=self.latency.percentile(99),
             latency_max_ms=self.latency.max_ms,
