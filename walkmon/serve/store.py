@@ -248,7 +248,9 @@ class Store:
                     activity = None
             cols["t_s"].append(_num(_f(t)))
             cols["walking"].append(bool(walking))
-            cols["activity"].append(str(activity) if activity else ("walking" if walking else "not walking"))
+            if not activity or activity == "unknown":  # older hops, or none of the segmentation's classes
+                activity = "walking" if walking else "not walking"
+            cols["activity"].append(str(activity))
             cols["label"].append(label or "")
             cols["cadence_spm"].append(_num(_f(cad), 1))
             cols["pitch"].append(_num(_f(p), 2))
