@@ -72,8 +72,13 @@ def run_live_page(tmp_path: Path, python_cmd: list[str], dashboard: Any, browser
                 alert_text = alerts
                 browser.save_screenshot(str(shots / "live.png"))
             time.sleep(0.2)
-        shown = browser.execute_script("return window.walkmonHops;")
+        # the page polls twice a second: give it a few polls to see that the session ended
+        end_wait = time.monotonic() + 5
         final_state = browser.find_element("id", "state").text
+        while "No session is running" not in final_state and time.monotonic() < end_wait:
+            time.sleep(0.2)
+            final_state = browser.find_element("id", "state").text
+        shown = browser.execute_script("return window.walkmonHops;")
         if not alert_text:
             browser.save_screenshot(str(shots / "live.png"))
     finally:
