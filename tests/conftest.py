@@ -27,3 +27,15 @@ def broad_trial_7() -> Path:
     if not path.is_file():
         pytest.skip(f"BROAD data not present at {path}")
     return path
+
+
+@pytest.fixture
+def unit_settings() -> dict[str, list[str]]:
+    """systemd/walkmon.service as ``{key: [values]}`` (comments and section headers left out)."""
+    out: dict[str, list[str]] = {}
+    unit = Path(__file__).resolve().parents[1] / "systemd" / "walkmon.service"
+    for line in unit.read_text().splitlines():
+        if "=" in line and not line.lstrip().startswith(("#", "[")):
+            k, v = line.split("=", 1)
+            out.setdefault(k.strip(), []).append(v.strip())
+    return out

@@ -152,17 +152,8 @@ def test_hook_and_its_children_are_killed_on_time(tmp_path: Path) -> None:
 
 
 # ------------------------------------------------------------------------------------------------ systemd unit
-def _unit() -> dict[str, list[str]]:
-    out: dict[str, list[str]] = {}
-    for line in UNIT.read_text().splitlines():
-        if "=" in line and not line.lstrip().startswith(("#", "[")):
-            k, v = line.split("=", 1)
-            out.setdefault(k.strip(), []).append(v.strip())
-    return out
-
-
-def test_unit_keeps_the_health_data_private_and_allows_the_devices_it_needs() -> None:
-    u = _unit()
+def test_unit_keeps_the_health_data_private_and_allows_the_devices_it_needs(unit_settings: dict[str, list[str]]) -> None:
+    u = unit_settings
     assert u["UMask"] == ["0077"] and u["StateDirectoryMode"] == ["0700"]
     assert u["DevicePolicy"] == ["closed"]
     allowed = {v.split()[0] for v in u["DeviceAllow"]}

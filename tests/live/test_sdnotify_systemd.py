@@ -23,17 +23,8 @@ REPO = Path(__file__).resolve().parents[2]
 UNIT = REPO / "systemd" / "walkmon.service"
 
 
-def unit_settings() -> dict[str, list[str]]:
-    out: dict[str, list[str]] = {}
-    for line in UNIT.read_text().splitlines():
-        if "=" in line and not line.lstrip().startswith(("#", "[")):
-            k, v = line.split("=", 1)
-            out.setdefault(k.strip(), []).append(v.strip())
-    return out
-
-
-def test_unit_has_the_service_contract() -> None:
-    s = unit_settings()
+def test_unit_has_the_service_contract(unit_settings: dict[str, list[str]]) -> None:
+    s = unit_settings
     assert s["Type"] == ["notify"] and int(s["WatchdogSec"][0]) > 0
     assert s["Restart"] == ["on-failure"] and s["User"] == ["walkmon"] and s["StateDirectory"] == ["walkmon"]
     (exec_start,) = s["ExecStart"]
