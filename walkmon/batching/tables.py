@@ -35,8 +35,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -251,25 +249,17 @@ def bouts_frame(rows: Iterable[Mapping[str, Any]]):  # noqa: ANN201
     return df.sort_values(["name", "bout"], kind="stable").reset_index(drop=True)
 
 
-def _atomic_write(path: Path, write) -> None:  # noqa: ANN001
-    """Write via a private temporary file in the same folder, then rename over ``path`` (never through a link)."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(Path(tmp))
-        os.chmod(tmp, 0o600)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def write_tables(out_dir: Path, summary, bouts) -> list[Path]:  # noqa: ANN001
     """``summary.parquet``, ``summary.csv`` and ``bouts.parquet`` in ``out_dir`` (each replaced atomically)."""
     paths = [out_dir / "summary.parquet", out_dir / "summary.csv", out_dir / "bouts.parquet"]
-    _atomic_write(paths[0], lambda p: summary.to_parquet(p, index=False))
-    _atomic_write(paths[1], lambda p: summary.to_csv(p, index=False))
-    _atomic_write(paths[2], lambda p: bouts.to_parquet(p, index=False))
+    from walkmon.safe_io import atomic_write  # noqa: PLC0415
+
+    with atomic_write(paths[0], "wb") as fh:
+        summary.to_parquet(fh, index=False)
+    with atomic_write(paths[1], newline="") as fh:
+        summary.to_csv(fh, index=False)
+    with atomic_write(paths[2], "wb") as fh:
+        bouts.to_parquet(fh, index=False)
     return paths
 
 
@@ -291,4 +281,6 @@ def write_manifest(out_dir: Path, entries: Mapping[str, Any]) -> None:
     doc = {"format": MANIFEST_FORMAT, "version": MANIFEST_VERSION,
            "recordings": {k: entries[k] for k in sorted(entries)}}
     text = json.dumps(doc, indent=1, allow_nan=False, default=str)
-    _atomic_write(out_dir / MANIFEST_NAME, lambda p: p.write_text(text, encoding="utf-8"))
+    from walkmon.safe_io import write_text  # noqa: PLC0415
+
+    write_text(out_dir / MANIFEST_NAME, text)
