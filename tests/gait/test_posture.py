@@ -134,3 +134,72 @@ def test_simulated_foot_drag_shows_alternating_step_times(simulated_truth: dict)
     assert np.mean(drag) > 1.1
     assert max(normal) < 1.08
     assert np.mean(drag) > np.mean(normal) + 0.08
+
+
+# ------------------------------------------------------------------ evidence of alternating steps (issue 11)
+def test_alternation_finds_a_true_left_right_difference_and_its_interval() -> None:
+    from walkmon.gait.posture import alternation
+
+    rng = np.random.default_rng(3)
+    k = np.arange(20)
+    limp = 0.55 * (1 + 0.1 * np.where(k % 2 == 0, 1, -1)) + rng.normal(0, 0.01, k.size)  # true ratio 1.222
+    alt = alternation(limp)
+    assert alt["ratio"] == pytest.approx(1.1 / 0.9, abs=0.03)
+    assert 1.0 < alt["ratio_ci_low"] < alt["ratio"]
+    assert alt["n_pairs"] == 10
+    # symmetric steps with the same noise: the interval includes symmetry
+    sym = 0.55 + rng.normal(0, 0.01, k.size)
+    assert alternation(sym)["ratio_ci_low"] == pytest.approx(1.0)
+
+
+def test_alternation_is_not_fooled_by_speeding_up_or_slowing_down() -> None:
+    """Gait initiation shortens each step a little more than the last: every pair v[2k] > v[2k+1], which a plain
+    even/odd comparison calls a limp (ratio 1.06 here); the fitted trend takes it up."""
+    from walkmon.gait.posture import alternation
+
+    steps = 0.7 - 0.02 * np.arange(12)
+    plain = steps[0::2].mean() / steps[1::2].mean()
+    assert plain > 1.02
+    alt = alternation(steps)
+    assert alt["ratio"] == pytest.approx(1.0, abs=1e-6)
+    assert alternation(steps[:5])["n_pairs"] == 2 and np.isnan(alternation(steps[:5])["ratio"])
+
+
+def _swaying(time_ratio: float | None, low: float | None, pairs: float | None) -> dict:
+    doc = table3_doc("motion2")  # total swing 24.9 deg: the paper's foot-drag sway
+    doc["asymmetry"] = {"step_time_ratio": time_ratio, "step_time_ratio_ci_low": low, "step_time_n_pairs": pairs,
+                        "step_swing_ratio": 2.5, "n_steps": 30.0}
+    return doc
+
+
+@pytest.mark.parametrize(("ratio", "low", "pairs"), [
+    (1.20, 1.0, 12.0),  # alternating step times differ, but not significantly
+    (1.05, 1.02, 12.0),  # significant but within healthy asymmetry (< 1.08)
+    (1.30, 1.20, 2.0),  # too few steady step pairs
+    (None, None, None),  # no step evidence at all (e.g. a document from an older version)
+])
+def test_large_sway_without_step_time_evidence_is_no_pathology(ratio, low, pairs) -> None:
+    c = classify(_swaying(ratio, low, pairs))
+    assert c.label == "unclassified"
+    assert "no evidence that alternating steps differ" in c.reasons[0]
+
+
+def test_large_sway_with_significant_step_time_asymmetry_is_a_foot_drag() -> None:
+    c = classify(_swaying(1.2, 1.1, 8.0))
+    assert c.label == "right_foot_drag"
+    assert any("step time ratio 1.20" in r for r in c.reasons)
+
+
+def test_gait_initiation_turn_and_termination_steps_are_not_steady(synthetic_imu) -> None:
+    """Steady-state steps leave out each bout's first and last two steps and the steps of a turn."""
+    from walkmon.gait.activity import segment, signals_from_imu
+
+    imu = synthetic_imu([("stand", 2.0), ("walk", 6.0), ("turn", 2.0), ("walk", 6.0), ("stand", 2.0)])
+    seg = segment(signals_from_imu(imu.t, imu.acc, imu.gyr))
+    (bout,) = seg.bouts
+    steady = seg.steady_steps_s
+    assert set(np.round(steady, 3)) <= set(np.round(bout.steps_s, 3))
+    assert steady.min() > bout.steps_s[1] and steady.max() < bout.steps_s[-2]
+    (turn,) = seg.turns
+    assert not np.any((steady > turn.start_s - 0.5) & (steady < turn.end_s + 0.5))
+    assert steady.size >= bout.n_steps - 4 - 6

@@ -61,6 +61,7 @@ __all__ = [
     "segment",
     "signals_from_angles",
     "signals_from_imu",
+    "steady_state_steps",
 ]
 
 ACTIVITIES = ("standing", "walking", "turning", "unknown")
@@ -92,6 +93,8 @@ class ActivitySettings:
     still_rms_acc: float = 0.15  # m/s²
     still_rms_deg: float = 0.15  # degrees
     still_gyro_deg_s: float = 10.0  # RMS angular rate
+    edge_steps: int = 2  # steps of gait initiation / termination at each end of a bout (not steady walking)
+    turn_margin_s: float = 0.5  # steps this close to a turn are turn entry / exit (not steady walking)
 
     def __post_init__(self) -> None:
         for name in ("rate_hz", "window_s", "hop_s", "min_periodicity", "lowpass_factor", "max_break_s"):
@@ -164,6 +167,9 @@ class Segmentation:
     activity: tuple[str, ...]
     source: str
     notes: tuple[str, ...] = field(default_factory=tuple)
+    #: steps of steady walking: bout steps minus the first and last ``edge_steps`` of each bout (gait
+    #: initiation and termination) and minus steps within ``turn_margin_s`` of a turn
+    steady_steps_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
     @property
     def walking_s(self) -> float:
@@ -491,6 +497,24 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
     for u in turns:
         act[(grid >= u.start_s) & (grid <= u.end_s)] = "turning"
     notes = []
+    steady = steady_state_steps(bouts, turns, s)
     if sig.heading_rate_deg_s is None:
         notes.append("no heading (accelerometer only): turns not detected, no yaw")
-    return Segmentation(tuple(bouts), turns, steps, grid, tuple(str(a) for a in act), sig.kind, tuple(notes))
+    return Segmentation(tuple(bouts), turns, steps, grid, tuple(str(a) for a in act), sig.kind, tuple(notes), steady)
+
+
+def steady_state_steps(
+    bouts: tuple[Bout, ...], turns: tuple[Turn, ...], settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS
+) -> NDArray[np.float64]:
+    """Steps of steady walking: each bout's steps without its first and last ``edge_steps`` (the accelerating
+    steps of gait initiation and the slowing ones of termination differ from steady gait and from each other,
+    so they would fake a left/right difference) and without steps within ``turn_margin_s`` of a turn."""
+    e = max(0, int(settings.edge_steps))
+    keep: list[float] = []
+    for b in bouts:
+        st = np.asarray(b.steps_s, dtype=float)
+        st = st[e : st.size - e] if st.size > 2 * e else st[:0]
+        for u in turns:
+            st = st[(st < u.start_s - settings.turn_margin_s) | (st > u.end_s + settings.turn_margin_s)]
+        keep.extend(st.tolist())
+    return np.asarray(keep, dtype=float)

@@ -493,38 +493,45 @@ def step_asymmetry(x: NDArray[np.float64], imax: NDArray, imin: NDArray, fs: flo
 
     ``step_swing_ratio``: mean swing of the larger-swing side over the other (1 = symmetric);
     ``step_time_ratio``: same for the step durations (between maxima or between minima, the larger);
-    ``*_asymmetry_pct``:
-    100 |A - B| / mean(A, B). Sides are "even" and "odd" steps: which one is the left foot is unknown.
+    ``*_ratio_ci_low``: the ratio at the low end of the 95 % confidence interval of the side difference, and
+    ``step_time_n_pairs`` the step pairs it rests on (:func:`walkmon.gait.posture.alternation`: trend removed);
+    ``*_asymmetry_pct``: 100 |A - B| / mean(A, B). Sides are "even" and "odd" steps: which one is the left foot
+    is unknown.
     """
+    from walkmon.gait.posture import alternation
+
     nan = float("nan")
     out = {
         "n_steps": float(imax.size),
         "step_swing_ratio": nan,
+        "step_swing_ratio_ci_low": nan,
         "swing_asymmetry_pct": nan,
         "step_time_ratio": nan,
+        "step_time_ratio_ci_low": nan,
+        "step_time_n_pairs": 0.0,
         "step_time_asymmetry_pct": nan,
     }
     if imax.size >= 4:
         swing = x[imax] - x[imin]
-        a, b = float(swing[0::2].mean()), float(swing[1::2].mean())
-        if min(a, b) > 0:
-            out["step_swing_ratio"] = max(a, b) / min(a, b)
-            out["swing_asymmetry_pct"] = 100.0 * abs(a - b) / (0.5 * (a + b))
+        alt = alternation(swing, min_pairs=2)
+        if math.isfinite(alt["ratio"]):
+            out["step_swing_ratio"] = alt["ratio"]
+            out["step_swing_ratio_ci_low"] = alt["ratio_ci_low"]
+            out["swing_asymmetry_pct"] = 200.0 * (alt["ratio"] - 1) / (alt["ratio"] + 1)
     if imax.size >= 5:
         # Intervals between maxima and between minima: the extremums sit at some phase of the step, and an
         # interval spans parts of two steps, so each estimate underrates the asymmetry; keep the larger one.
         # Extremum times are the centroids of their peaks' top fifth, not the argmax: a flat, double-humped
         # peak would otherwise hop between its humps and fake an alternation.
-        best = (1.0, 0.0)
+        best = (1.0, 1.0, 0.0)
         swing_all = x[imax] - x[imin]
         for marks, sign in ((imax, 1.0), (imin, -1.0)):
             times = _peak_centroids(sign * x, marks, 0.2 * swing_all)
-            durations = np.diff(times) / fs
-            a, b = float(durations[0::2].mean()), float(durations[1::2].mean())
-            ratio = max(a, b) / min(a, b)
-            if ratio >= best[0]:
-                best = (ratio, 100.0 * abs(a - b) / (0.5 * (a + b)))
-        out["step_time_ratio"], out["step_time_asymmetry_pct"] = best
+            alt = alternation(np.diff(times) / fs, min_pairs=2)
+            if math.isfinite(alt["ratio"]) and alt["ratio"] >= best[0]:
+                best = (alt["ratio"], alt["ratio_ci_low"], alt["n_pairs"])
+        out["step_time_ratio"], out["step_time_ratio_ci_low"], out["step_time_n_pairs"] = best
+        out["step_time_asymmetry_pct"] = 200.0 * (best[0] - 1) / (best[0] + 1)
     return out
 
 

@@ -252,25 +252,31 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
     return sorted(out)
 
 
-def _steps_asymmetry(steps: NDArray[np.float64]) -> float:
-    """Step time ratio of alternating detected steps (>= 1; NaN with fewer than 5 steps)."""
-    d = np.diff(steps)
-    if d.size < 4:
-        return float("nan")
-    med = np.median(d)
-    if np.any(d > 1.6 * med):  # a pause breaks the alternation: use the longest regular run
-        return float("nan")
-    a, b = float(d[0::2].mean()), float(d[1::2].mean())
-    return max(a, b) / min(a, b)
+def _steps_asymmetry(steps: NDArray[np.float64]) -> dict[str, float]:
+    """Alternating step time asymmetry of detected steps (:func:`walkmon.gait.posture.alternation`) over the
+    longest run without a pause (an interval above 1.6 x the median breaks the alternation: after a pause the
+    leading foot is unknown)."""
+    from walkmon.gait.posture import alternation
+
+    d = np.diff(np.asarray(steps, dtype=float))
+    if d.size:
+        ok = d <= 1.6 * np.median(d)
+        runs = _runs(ok)
+        if runs:
+            i0, i1 = max(runs, key=lambda r: r[1] - r[0])
+            d = d[i0:i1]
+    return alternation(d)
 
 
 def span_indicators(
     t: NDArray, a: NDArray, t0: float, t1: float, ref: NDArray, sig_steps: NDArray, kind: str,
     settings: IndicatorSettings = DEFAULT_INDICATOR_SETTINGS, baseline: Mapping[str, Any] | None = None,
+    steady_steps: NDArray | None = None,
 ) -> tuple[Indicators, dict[str, Any]]:
     """Indicators and classification of the walking span [t0, t1] of heading-free angles ``a`` (upright =
     ``ref``): the paper's swing/inclination, cadence from the steps in the span, asymmetry, and the one
-    classifier (:func:`walkmon.gait.posture.classify`). Used for every offline posture segment and for every live
+    classifier (:func:`walkmon.gait.posture.classify`); the step time asymmetry from ``steady_steps`` when given
+    (steps of gait initiation/termination and turns left out). Used for every offline posture segment and every live
     window (:mod:`walkmon.gait.live`), so both label a walk with the same function, thresholds and reasons."""
     from walkmon.gait.posture import classify
 
@@ -282,8 +288,12 @@ def span_indicators(
     cadence = cadence_from_steps(st) if st.size >= 3 else spectral
     asym = dict(ind.asymmetry)
     if kind != "angles":  # detected steps of the IMU: their alternation is the better evidence
-        r = _steps_asymmetry(st)
+        steady = st if steady_steps is None else steady_steps[(steady_steps >= t0) & (steady_steps <= t1)]
+        alt = _steps_asymmetry(steady)
+        r = alt["ratio"]
         asym["step_time_ratio"] = r
+        asym["step_time_ratio_ci_low"] = alt["ratio_ci_low"]
+        asym["step_time_n_pairs"] = alt["n_pairs"]
         asym["step_time_asymmetry_pct"] = 100.0 * 2 * (r - 1) / (r + 1) if math.isfinite(r) else float("nan")
         asym["n_steps"] = float(st.size)
     ind = replace(ind, cadence_spm=float(cadence), asymmetry=asym)
@@ -453,7 +463,8 @@ def _bouts(
             cuts = change_points(t[m], a[m], s)
             edges = [p0, *cuts, p1]
             for q0, q1 in zip(edges[:-1], edges[1:], strict=True):
-                ind, doc = span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base)
+                ind, doc = span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base,
+                                           steady_steps=seg.steady_steps_s)
                 if no_yaw:
                     doc["axes"]["yaw"] = None
                 seg_docs.append(doc)
