@@ -21,7 +21,9 @@ Processing (:func:`segment`):
 3. **Walking bouts** (Mobilise-D convention, Kluge et al. 2021, PLoS ONE 16(8) e0256541 and the mobgap
    ``WbAssembly`` defaults): steps closer than ``max_break_s`` = 3 s belong to one bout (a shorter pause
    joins the bouts around it); a bout needs ``min_steps`` = 4 steps (two strides). A bout runs from its first
-   to its last step.
+   to its last step; leading/trailing steps weaker than ``weak_step_fraction`` x the bout's median step amplitude
+   (a weight shift before the first step, sway after the last) and a first/last step interval shorter than
+   0.6 x the bout's median are gait initiation/termination, not steps, and are dropped.
 4. **Cadence per bout** from the steps: 60 / mean step duration, strides spanning a pause (above
    ``pause_factor`` x the median stride) or hurried (below the median / ``hurried_factor``) left out; the spectral peak of the bout is kept as a cross-check.
 5. **Turns** (El-Gohary et al. 2013, Sensors 14(1) 356-369; also mobgap's ``TdElGohary``): the heading rate
@@ -93,6 +95,7 @@ class ActivitySettings:
     still_rms_acc: float = 0.15  # m/s²
     still_rms_deg: float = 0.15  # degrees
     still_gyro_deg_s: float = 10.0  # RMS angular rate
+    weak_step_fraction: float = 0.3  # edge steps weaker than this x the bout's median amplitude are not steps
     edge_steps: int = 2  # steps of gait initiation / termination at each end of a bout (not steady walking)
     turn_margin_s: float = 0.5  # steps this close to a turn are turn entry / exit (not steady walking)
 
@@ -395,14 +398,42 @@ def bouts_from_steps(
         return ()
     breaks = np.flatnonzero(np.diff(st) > settings.max_break_s)
     groups = np.split(st, breaks + 1)
+    amp = _step_amplitudes(st, sig, settings)
+    amps = np.split(amp, breaks + 1)
     out = []
-    for g in groups:
+    for g, a in zip(groups, amps, strict=True):
+        g = _trim_weak_edges(g, a, settings.weak_step_fraction)
         g = _trim_edges(g)
         if g.size < settings.min_steps:
             continue
         out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence_from_steps(g, settings),
                         _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
     return tuple(out)
+
+
+def _step_amplitudes(st: NDArray[np.float64], sig: TrunkSignals | None, s: ActivitySettings) -> NDArray[np.float64]:
+    """Peak-to-peak of the gait-band step signal within +-0.3 s of each step (NaN without the signal)."""
+    if sig is None or st.size == 0:
+        return np.full(st.shape, np.nan)
+    x = _butter(sig.step, s.rate_hz, (0.4, 4.0), "band")
+    i = np.searchsorted(sig.t_s, st)
+    w = int(round(0.3 * s.rate_hz))
+    return np.array([np.ptp(x[max(0, k - w) : min(x.size, k + w + 1)]) if k < x.size else np.nan for k in i])
+
+
+def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: float) -> NDArray[np.float64]:
+    """Drop leading/trailing 'steps' whose amplitude is below ``fraction`` x the bout's median step amplitude:
+    a weight shift before gait initiation or the sway after stopping moves the trunk once or twice at about a
+    step's rhythm but far more weakly than a heel strike."""
+    if g.size < 3 or not np.all(np.isfinite(a)):
+        return g
+    med = float(np.median(a))
+    i0, i1 = 0, g.size
+    while i1 - i0 >= 3 and a[i0] < fraction * med:
+        i0 += 1
+    while i1 - i0 >= 3 and a[i1 - 1] < fraction * med:
+        i1 -= 1
+    return g[i0:i1]
 
 
 def _trim_edges(g: NDArray[np.float64]) -> NDArray[np.float64]:
