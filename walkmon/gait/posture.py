@@ -115,7 +115,7 @@ class PostureThresholds:
 DEFAULT_POSTURE_THRESHOLDS = PostureThresholds()
 
 
-def alternation(values: Any, min_pairs: int = 4) -> dict[str, float]:
+def alternation(values: Any, min_pairs: int = 3) -> dict[str, float]:
     """Left/right difference of alternating per-step values (step durations or step swings), with its evidence.
 
     Consecutive steps alternate feet, so values ``v[0], v[2], ...`` belong to one side and ``v[1], v[3], ...`` to
@@ -224,7 +224,7 @@ def _alternating(doc: Mapping[str, Any], th: PostureThresholds) -> tuple[bool, s
     pairs = _asym(doc, "step_time_n_pairs")
     if not (math.isfinite(ratio) and math.isfinite(low) and math.isfinite(pairs)) or pairs < th.min_step_pairs:
         n = 0 if not math.isfinite(pairs) else int(pairs)
-        return False, (f"{n} steady step pairs (< {th.min_step_pairs}) to compare alternating step times")
+        return False, (f"{n} steady step pairs to compare alternating step times, {th.min_step_pairs} needed")
     seen = f"alternating step time ratio {ratio:.2f} (95 % low {low:.2f}) over {int(pairs)} step pairs"
     if ratio >= th.drag_step_time_ratio and low > 1.0:
         return True, seen
