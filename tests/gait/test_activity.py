@@ -126,3 +126,32 @@ def test_mobilise_d_straight_walk_cadence_within_2_percent_of_indip() -> None:
     (b,) = seg.bouts
     assert b.cadence_spm == pytest.approx(float(ref.Cadence), rel=0.02)
     assert b.start_s == pytest.approx(float(ref.Start), abs=0.5) and b.end_s == pytest.approx(float(ref.End), abs=1.0)
+
+
+@pytest.mark.skipif(not (DATA / "mobgap").is_dir(), reason="shared real data not present")
+def test_weight_shift_before_the_first_step_is_not_a_step() -> None:
+    """Real data (Mobilise-D consortium, mobgap example data, Apache-2.0): HA/002 Test5 Trial2 shifts its weight
+    twice (trunk bounces at a sixth and a quarter of a step's) before the first heel strike; the bout starts at
+    the reference's first step (Stereophoto), and its cadence matches."""
+    import scipy.io as sio
+
+    m = sio.loadmat(DATA / "mobgap" / "lab" / "HA" / "002" / "data.mat", squeeze_me=True, struct_as_record=False)
+    trial = m["data"].TimeMeasure1.Test5.Trial2
+    su = trial.SU.LowerBack
+    ref = np.atleast_1d(trial.Standards.Stereophoto.MicroWB)[0]
+    t = np.arange(len(su.Acc)) / 100.0
+    (b,) = segment(signals_from_imu(t, su.Acc * 9.80665, np.radians(su.Gyr))).bouts
+    assert b.start_s == pytest.approx(float(ref.Start), abs=0.25)
+    assert b.end_s == pytest.approx(float(ref.End), abs=0.25)
+    assert b.cadence_spm == pytest.approx(float(np.nanmean(np.atleast_1d(ref.Cadence))), rel=0.02)
+
+
+def test_steady_state_steps_leave_out_bout_edges_and_turns(synthetic_imu) -> None:
+    from walkmon.gait.activity import DEFAULT_ACTIVITY_SETTINGS, Bout, Turn, steady_state_steps
+
+    steps = tuple(0.5 * k for k in range(20))  # 0 .. 9.5 s
+    bout = Bout(steps[0], steps[-1], steps, 120.0, 120.0)
+    steady = steady_state_steps((bout,), (Turn(4.0, 5.0, 90.0),), DEFAULT_ACTIVITY_SETTINGS)
+    assert steady.tolist() == [1.0, 1.5, 2.0, 2.5, 3.0, 6.0, 6.5, 7.0, 7.5, 8.0, 8.5]
+    short = Bout(0.0, 1.5, (0.0, 0.5, 1.0, 1.5), 120.0, 120.0)
+    assert steady_state_steps((short,), (), DEFAULT_ACTIVITY_SETTINGS).size == 0

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -203,3 +205,36 @@ def test_gait_initiation_turn_and_termination_steps_are_not_steady(synthetic_imu
     (turn,) = seg.turns
     assert not np.any((steady > turn.start_s - 0.5) & (steady < turn.end_s + 0.5))
     assert steady.size >= bout.n_steps - 4 - 6
+
+
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data"
+if not DATA.is_dir():
+    DATA = Path("/work/shared/data")
+#: Mobilise-D lower-back sensor axes (x up, y right, z forward) -> walkmon's camera axes (x right, y down, z fwd)
+LOWER_BACK_TO_CAMERA = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+
+
+@pytest.mark.skipif(not (DATA / "mobgap").is_dir(), reason="shared real data not present")
+@pytest.mark.parametrize("trial", ["Test5.Trial1", "Test5.Trial2", "Test11.Trial1"])
+def test_healthy_real_walks_get_no_pathology_label(trial: str) -> None:
+    """Real data (Mobilise-D consortium, mobgap example data, Apache-2.0): the healthy participant HA/002's
+    straight walks and daily-living course (turns, pauses, gait initiation) through the full IMU analysis, no
+    baseline: no segment may be labelled a pathology (Test5 Trial1 was right_foot_drag from its trunk sway)."""
+    import scipy.io as sio
+
+    from walkmon.gait.session import ImuInput, analyze_session
+    from walkmon.imu.recordings import ImuRecording, imu_only_columns
+
+    m = sio.loadmat(DATA / "mobgap" / "lab" / "HA" / "002" / "data.mat", squeeze_me=True, struct_as_record=False)
+    test, name = trial.split(".")
+    su = getattr(getattr(m["data"].TimeMeasure1, test), name).SU.LowerBack
+    t = np.arange(len(su.Acc)) / 100.0
+    acc = (su.Acc * 9.80665) @ LOWER_BACK_TO_CAMERA.T
+    gyr = np.radians(su.Gyr) @ LOWER_BACK_TO_CAMERA.T
+    cols = imu_only_columns(ImuRecording(t.copy(), gyr.copy(), acc.copy()))
+    res = analyze_session(cols["t"], np.column_stack([cols["pitch"], cols["yaw"], cols["roll"]]),
+                          imu=ImuInput(t, acc, gyr), abs_angles_deg=np.column_stack([cols["pitch_abs"],
+                                                                                    cols["roll_abs"]]))
+    assert res.segmentation.bouts
+    labels = {d["label"] for d in res.segments} | {res.indicators.classification.label}
+    assert not labels & {"right_foot_drag", "bend", "left_shoulder_down"}, labels

@@ -18,7 +18,8 @@ Default thresholds (degrees; see :class:`PostureThresholds`):
 rule                                   no baseline with a baseline (differences walk - baseline)
 =====================================  ==========  =================================================================
 right_foot_drag: total swing           >= 16 deg   >= 2.0 x the baseline's total swing (pitch + yaw + roll)
-  ... and alternating steps differ     time ratio >= 1.08 or swing ratio >= 1.3 (no baseline only)
+  ... and alternating steps differ     step time ratio >= 1.08, 95 % interval above 1, >= 3 step pairs
+                                       (no baseline only; see below)
 left_shoulder_down: roll inclination   <= -3 deg   drops by >= T_r, and by >= 0.3 x the pitch inclination's drop
 bend: pitch inclination                <= -8 deg   drops by >= T_p, and pitch lmax and lmin both drop
 normal: everything inside              |rho| < 3   total swing ratio in [0.5, 2), |d rho_p| < T_p, |d rho_r| < T_r
@@ -35,9 +36,14 @@ Anything else (e.g. leaning right or backward) is ``unclassified``, with the rea
 No false alarms without a baseline (issue 11): a large trunk sway alone is not a pathology: turns, gait
 initiation and a lower-back or loosely worn sensor all give large swings in healthy people (28 of 28 real
 healthy walks were labelled right_foot_drag by the sway rule alone). Without a baseline, right_foot_drag also
-needs left/right alternation of the detected steps (step time ratio >= 1.08 or step swing ratio >= 1.3, as the
-paper's dragged foot and the simulator show); a large symmetric sway is ``unclassified`` with that reason. With
-fewer than ``min_steps`` (8) steps nothing is labelled (``unclassified``: too little walking).
+needs evidence that alternating steps differ in TIME (:func:`alternation`): a step time ratio >= 1.08 (the upper
+end of healthy left/right symmetry ratios, Patterson et al. 2010) whose 95 % confidence interval excludes
+symmetry, over at least 3 pairs of steady-state steps (with an IMU: the detected steps minus each bout's first
+and last two steps, gait initiation and termination, and minus turn steps; :func:`walkmon.gait.activity.
+steady_state_steps`). A left/right difference of step SWING is not evidence: healthy trunks sway unevenly too
+(the pitch cycles of the healthy Mobilise-D participant HA/002's lower-back sensor alternate 2.3 : 1 in Test5).
+Weak evidence gives ``unclassified`` with the reason. With fewer than ``min_steps`` (8) steps nothing is labelled
+(``unclassified``: too little walking).
 
 This is the one classifier of walkmon: the offline analysis (per bout and posture segment) and the live
 monitor's windows (:mod:`walkmon.live_indicators`) both call :func:`classify`.
@@ -247,7 +253,7 @@ def _absolute(doc: Mapping[str, Any], th: PostureThresholds) -> tuple[str, list[
             f"{_axis(doc, 'yaw', 'swing_mean'):.1f}, roll {_axis(doc, 'roll', 'swing_mean'):.1f}) >= "
             f"{th.drag_total_swing_deg:g} deg: poor balance, as in the paper's right foot drag walk",
             seen + " (limp / dragged foot)",
-            *_extras(doc),
+            *(r for r in _extras(doc) if not r.startswith("alternating step times")),
         ]
     if rho_r <= th.left_roll_inclination_deg:
         return "left_shoulder_down", [
