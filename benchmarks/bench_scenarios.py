@@ -15,6 +15,9 @@ above 1 deg, where the error is the frame-to-frame change's error accumulated si
 flagged frame resets the reference: after it, walkmon's output is only claimed relative to before; 'raw > 1'
 counts ok frames whose start-relative error exceeds 1 deg, for reference).
 Targets: detrended <= 0.15, raw <= 0.5, frame-to-frame <= 0.5 (or the frames flagged), 0 frames ok with error > 1.
+Two verdicts: 'met' holds every frame to every target (start-relative); 'met*' excuses the flagged frames (the ok
+frames' error since the last flagged frame within the raw target), and the 'raw ok' column shows what a flagged
+stretch left in the orientation of the ok frames after it. Flagged frames are counted by their reason.
 """
 
 from __future__ import annotations
@@ -103,16 +106,25 @@ def run(d: Path, overrides: dict | None = None) -> tuple[dict, float]:
     raw_angle = np.array([np.degrees(np.arccos(np.clip((np.trace(Rt[0].T @ Rt[i] @ (Re[i].T)) - 1) / 2, -1, 1)))
                           for i in range(n)])
     statuses: dict[str, int] = {}
+    reasons: dict[str, int] = {}
     for e in out[:n]:
         if e.status.value not in ("ok", "first_frame"):
             key = f"{e.status.value}{'/held' if e.model == 'hold' else ''}"
             statuses[key] = statuses.get(key, 0) + 1
+            why = e.reason or "unstated"
+            reasons[why] = reasons.get(why, 0) + 1
     ok_step = ok.copy()
     ok_step[0] = False
     r = {
         "frames": int(n),
         "detrended_rmse_deg": np.sqrt(np.mean(derr**2, axis=0)).round(4).tolist(),
         "raw_rmse_deg": np.sqrt(np.mean(err**2, axis=0)).round(4).tolist(),
+        # the ok frames alone, still start-relative: a flagged frame's error that stays in the orientation
+        # (leaks into the ok frames after it) shows here
+        "raw_rmse_ok_deg": (np.sqrt(np.mean(err[ok] ** 2, axis=0)).round(4).tolist() if ok.any() else [0.0] * 3),
+        # the ok frames' error since the last flagged frame (the claim walkmon makes after a flag), as an angle
+        "since_flag_rmse_deg": round(float(np.sqrt(np.mean(since[ok] ** 2))) if ok.any() else 0.0, 4),
+        "flag_why": reasons,
         "max_frame_error_deg": round(float(step[ok_step].max()) if ok_step.any() else 0.0, 4),
         "max_frame_error_any_deg": round(float(step.max()), 4),
         "flagged": int((~ok).sum()),
@@ -125,8 +137,20 @@ def run(d: Path, overrides: dict | None = None) -> tuple[dict, float]:
 
 
 def meets(r: dict) -> bool:
+    """Every target on every frame (flagged or not), start-relative."""
     return (max(r["detrended_rmse_deg"]) <= TARGETS["detrended_rmse_deg"]
             and max(r["raw_rmse_deg"]) <= TARGETS["raw_rmse_deg"]
+            and r["max_frame_error_deg"] <= TARGETS["max_frame_error_deg"]
+            and r["ok_over_1deg"] == 0)
+
+
+def meets_flagged(r: dict) -> bool:
+    """The targets with the flagged frames excused: the ok frames' error since the last flagged frame within the
+    raw target (RMSE) and 1 deg (every frame), their frame-to-frame error within its target, the detrended RMSE
+    (all frames) within its target. What a flagged stretch left in the orientation is not excused here: the
+    table shows it as the ok frames' start-relative raw RMSE."""
+    return (max(r["detrended_rmse_deg"]) <= TARGETS["detrended_rmse_deg"]
+            and r["since_flag_rmse_deg"] <= TARGETS["raw_rmse_deg"]
             and r["max_frame_error_deg"] <= TARGETS["max_frame_error_deg"]
             and r["ok_over_1deg"] == 0)
 
@@ -165,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.render_only:
                 continue
             r, fps = run(d, overrides)
-            r.update(scenario=sc, seed=seed, fps_cpu=round(fps, 1), meets=meets(r))
+            r.update(scenario=sc, seed=seed, fps_cpu=round(fps, 1), meets=meets(r), meets_flagged=meets_flagged(r))
             rows.append(r)
             sys.stderr.write(f"{sc} seed {seed}: det {fmt3(r['detrended_rmse_deg'])} raw {fmt3(r['raw_rmse_deg'])} "
                              f"f2f {r['max_frame_error_deg']:.3f} flagged {r['flagged']} {r['flag_reasons']} "
@@ -181,32 +205,45 @@ def main(argv: list[str] | None = None) -> int:
          f"thread. Clips: {args.size}, {args.seconds:g} s (2 s standing at each end), 30 fps mp4, seeds 1-{args.seeds}"
          f"{' (those rendered: --cached-only)' if args.cached_only else ''}, simulator {simulator_key()}."),
         "",
-        ("Degrees, pitch/yaw/roll. f2f: largest frame-to-frame error over the frames reported ok. flagged: frames "
-         "not ok (low_quality: rotation-only fit used; /held: orientation held). ok>1: frames reported ok whose "
-         "error since the last flagged frame is above 1 deg (target 0); raw>1: ok frames whose start-relative "
-         "error is above 1 deg. frames/s CPU: decode + estimation per CPU second (one thread; inflated by the "
-         "load average above, compare within a table only)."),
+        ("Degrees, pitch/yaw/roll, against truth.csv relative to the first frame. raw: RMSE over every frame; "
+         "raw ok: over the frames reported ok only (a flagged stretch's error that stays in the orientation leaks "
+         "into these: a held or misestimated turn is still wrong afterwards); since flag: RMSE over the ok frames of "
+         "the error accumulated since the last flagged frame (angle). f2f: largest frame-to-frame error over the "
+         "ok frames. flagged: frames not ok, by reason (walkmon.rotation.FLAG_REASONS; /held: orientation held, "
+         "else still estimated). ok>1: ok frames whose error since the last flagged frame is above 1 deg (target "
+         "0); raw>1: ok frames whose start-relative error is above 1 deg. met: every target on every frame; met*: "
+         "the flagged frames excused (since flag <= 0.5, f2f <= 0.5, ok>1 = 0, detrended <= 0.15). frames/s CPU: "
+         "decode + estimation per CPU second (one thread; inflated by the load average above, compare within a "
+         "table only)."),
         "",
-        "| scenario | seed | detrended RMSE | raw RMSE | f2f (ok) | flagged | ok>1 | raw>1 | max raw err | frames/s CPU | met |",
-        "|---|---:|---|---|---:|---|---:|---:|---:|---:|---|",
+        ("| scenario | seed | detrended RMSE | raw RMSE | raw ok | since flag | f2f (ok) | flagged (why) | ok>1 | raw>1 | "
+         "max raw err | frames/s CPU | met | met* |"),
+        "|---|---:|---|---|---|---:|---:|---|---:|---:|---:|---:|---|---|",
     ]
     for r in rows:
-        why = ", ".join(f"{n} {k}" for k, n in sorted(r["flag_reasons"].items())) or "0"
+        why = ", ".join(f"{n} {k}" for k, n in sorted(r["flag_why"].items(), key=lambda kv: -kv[1]))
+        held = sum(n for k, n in r["flag_reasons"].items() if k.endswith("/held"))
+        why = f"{r['flagged']}: {why}{f' ({held} held)' if held else ''}" if r["flagged"] else "0"
         lines.append(f"| {r['scenario']} | {r['seed']} | {fmt3(r['detrended_rmse_deg'])} | {fmt3(r['raw_rmse_deg'])} | "
+                     f"{fmt3(r['raw_rmse_ok_deg'])} | {r['since_flag_rmse_deg']:.3f} | "
                      f"{r['max_frame_error_deg']:.3f} | {why} | {r['ok_over_1deg']} | {r['ok_raw_over_1deg']} | "
-                     f"{r['max_raw_error_deg']:.2f} | {r['fps_cpu']:.0f} | {'✓' if r['meets'] else '✗'} |")
+                     f"{r['max_raw_error_deg']:.2f} | {r['fps_cpu']:.0f} | {'✓' if r['meets'] else '✗'} | "
+                     f"{'✓' if r['meets_flagged'] else '✗'} |")
     lines += ["", "Summary per scenario (worst over seeds):", "",
-              "| scenario | seeds | worst detrended | worst raw | worst f2f (ok) | flagged (mean) | ok>1 (sum) | met |",
-              "|---|---:|---|---|---:|---:|---:|---|"]
+              ("| scenario | seeds | worst detrended | worst raw | worst raw ok | worst since flag | worst f2f (ok) | "
+               "flagged (mean) | ok>1 (sum) | met | met* |"),
+              "|---|---:|---|---|---|---:|---:|---:|---:|---|---|"]
     for sc in args.scenarios:
         rs = [r for r in rows if r["scenario"] == sc]
         if not rs:
             continue
         det = np.max([r["detrended_rmse_deg"] for r in rs], axis=0).tolist()
         raw = np.max([r["raw_rmse_deg"] for r in rs], axis=0).tolist()
-        lines.append(f"| {sc} | {len(rs)} | {fmt3(det)} | {fmt3(raw)} | {max(r['max_frame_error_deg'] for r in rs):.3f} | "
+        raw_ok = np.max([r["raw_rmse_ok_deg"] for r in rs], axis=0).tolist()
+        lines.append(f"| {sc} | {len(rs)} | {fmt3(det)} | {fmt3(raw)} | {fmt3(raw_ok)} | "
+                     f"{max(r['since_flag_rmse_deg'] for r in rs):.3f} | {max(r['max_frame_error_deg'] for r in rs):.3f} | "
                      f"{np.mean([r['flagged'] for r in rs]):.1f} | {sum(r['ok_over_1deg'] for r in rs)} | "
-                     f"{sum(r['meets'] for r in rs)}/{len(rs)} |")
+                     f"{sum(r['meets'] for r in rs)}/{len(rs)} | {sum(r['meets_flagged'] for r in rs)}/{len(rs)} |")
     text = "\n".join(lines) + "\n"
     sys.stdout.write(text)
     base = args.out or str(RESULTS / ("scenarios" if args.size == "640x480" else f"scenarios-{args.size}"))

@@ -11,6 +11,7 @@ orientation times the relative rotation, so error only accumulates once per keyf
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections import deque
@@ -45,6 +46,15 @@ _DISAGREE_PARALLAX_RATIO = 2.0
 _PLANAR_RESIDUAL_RATIO = 5.0
 _PLANAR_AMBIGUITY_DEG = 1.0
 _PLANAR_AMBIGUITY_TRACK_PX = 4.0
+#: A second essential refinement starts from the walker's carried direction of travel when the first one's
+#: baseline is further than this from it (deg), and replaces the first when its robust cost is below
+#: _ALT_COST_RATIO times the first's. See FastEngine._essential_fit.
+_ALT_START_MIN_DEG = 30.0
+_ALT_COST_RATIO = 0.8
+_HEADING_TAU_S = 2.0
+#: A fit further than this (deg) from the previous frame's estimate moved on by the rotation-only fit's
+#: frame-to-frame change is flagged LOW_QUALITY ("step_inconsistent") and the chained change used instead.
+_STEP_JUMP_DEG = 1.0
 #: ``min_feature_distance_px`` is given for a view this wide and scaled with the frame width.
 _REFERENCE_WIDTH_PX = 640.0
 
@@ -81,8 +91,14 @@ class FastEngine:
         )
         self._R_kf = np.eye(3)
         self._R_rel = np.eye(3)
+        self._q_prev = np.zeros((0, 3))  # the tracks' normalised coordinates in the previous frame
+        self._q_cur = np.zeros((0, 3))
         self._kf_tracks = 0
         self._frames_since_kf = 0
+        # the walker's heading (unit, first frame's axes), the second start of the essential refinement (see
+        # _essential_fit); None until a frame was accepted
+        self._travel: NDArray[np.float64] | None = None
+        self._t_prev: float | None = None
         self.started = False
 
     # ----------------------------------------------------------------------------------------------------------
@@ -121,11 +137,14 @@ class FastEngine:
         """Tracking broke (cap, blur, too few inliers): forget tracks and keyframes, keep the orientation."""
         self._pts = np.zeros((0, 1, 2), np.float32)
         self._ids = np.zeros(0, np.int64)
+        self._kf_q = np.zeros((0, 3))
+        self._q_prev = np.zeros((0, 3))
         self._rejected = np.zeros((0, 2), np.float32)
         self._window.clear()
 
     def _keep(self, mask: NDArray[np.bool_]) -> None:
         self._pts, self._kf_q, self._ids = self._pts[mask], self._kf_q[mask], self._ids[mask]
+        self._q_prev = self._q_prev[mask]
 
     def _refined_keyframe_orientation(self) -> NDArray[np.float64]:
         """Sliding-window refinement: the current orientation averaged with the ones older keyframes imply.
@@ -177,6 +196,7 @@ class FastEngine:
         self._pts = np.concatenate([self._pts, new]) if self._pts.shape[0] else new
         self._ids = np.concatenate([self._ids, new_ids])
         self._kf_q = self._normalized(self._pts) if self._pts.shape[0] else np.zeros((0, 3))
+        self._q_prev = self._kf_q.copy()
         order = np.argsort(self._ids)
         self._window.append((self._orientation.copy(), self._ids[order], self._kf_q[order]))
         self._R_kf = self._orientation.copy()
@@ -186,7 +206,7 @@ class FastEngine:
 
     def _essential_fit(
         self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], R_rot: NDArray[np.float64]
-    ) -> geo.PoseFit:
+    ) -> tuple[geo.PoseFit, str]:
         """The essential model against the keyframe, refined afresh from the rotation-only fit every frame.
 
         Not warm-started from the previous frame's (R, baseline): at short baselines the essential cost has a
@@ -196,11 +216,43 @@ class FastEngine:
         estimate slid 3.2 deg in pitch and 2.9 in yaw within one keyframe (0.4 s) on right_foot_drag seed 2 at
         320x240, with a plausible residual and status ok. The rotation-only fit is biased by parallax but
         close, and the baseline that fits it best (closed form) starts each refinement where the data put it.
+
+        That start fails when the camera looks sideways to the direction of travel (a torso turned towards a
+        facade 1-3 m away): the lateral translation's flow looks like a yaw, the rotation-only fit takes it as
+        one, the closed-form baseline is then along the optical axis, and Gauss-Newton stays in that local
+        minimum (turns seed 1, 640x480: 0.7 deg of yaw error per frame, status ok, its robust cost 2-20x the
+        true pose's). So a second refinement starts from the direction of travel carried from the last
+        accepted essential fits (in the first frame's axes, rotated into the keyframe), when that direction is
+        more than _ALT_START_MIN_DEG from the first fit's baseline (walking straight ahead both agree and the
+        second fit is skipped: no cost on the common path); it replaces the first only when its robust cost is
+        clearly lower (below _ALT_COST_RATIO times), never on a noise-level difference along the flat valley.
+        Returns the fit and ``"sideways"`` when the second start gave it, ``"ambiguous"`` when neither start's
+        cost is clearly lower and their rotations differ by more than _PLANAR_AMBIGUITY_DEG (the frame is then
+        flagged: "translation_ambiguity"), else ``""``.
         """
         sigma = self.s.feature_noise_px
-        return geo.refine_relative_pose(
+        pose = geo.refine_relative_pose(
             q_kf, q_cur, self._focal, R_rot, None, scale_px=sigma * 2, inlier_px=self.s.inlier_px, iterations=4,
         )
+        if self._travel is None:
+            return pose, ""
+        travel = self._R_kf.T @ self._travel
+        if travel[2] >= math.cos(math.radians(_ALT_START_MIN_DEG)):
+            return pose, ""  # the camera looks along the walker's heading (or stands looking ahead)
+        # started across the view (the travel's component normal to the optical axis), at the far end of the
+        # valley from the first start: the carried travel itself lags a turn and can start in the wrong basin
+        c_alt = np.array([travel[0], travel[1], 0.0])
+        if float(c_alt @ c_alt) < 1e-6:
+            return pose, ""
+        alt = geo.refine_relative_pose(
+            q_kf, q_cur, self._focal, R_rot, c_alt, scale_px=sigma * 2, inlier_px=self.s.inlier_px, iterations=6,
+        )
+        cost_alt, cost = _robust_cost(alt.residuals_px, 2 * sigma), _robust_cost(pose.residuals_px, 2 * sigma)
+        if cost_alt < _ALT_COST_RATIO * cost:
+            return alt, "sideways"
+        if cost_alt * _ALT_COST_RATIO <= cost and geo.rotation_angle_deg(pose.rotation.T @ alt.rotation) > _PLANAR_AMBIGUITY_DEG:
+            return pose, "ambiguous"
+        return pose, ""
 
     def _models_disagree(self, rot: geo.RotationFit, pose: geo.PoseFit) -> bool:
         """True when the essential rotation is further from the rotation-only one than the parallax allows.
@@ -216,24 +268,19 @@ class FastEngine:
         parallax_deg = math.degrees(float(np.median(rot.residuals_px)) / self._focal)
         return gap_deg > _DISAGREE_PARALLAX_RATIO * parallax_deg
 
-    def _homography_choice(
-        self,
-        q_kf: NDArray[np.float64],
-        q_cur: NDArray[np.float64],
-        rot: geo.RotationFit,
-        pose: geo.PoseFit,
-        mask: NDArray[np.bool_],
-    ) -> tuple[str, NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], EstimateStatus] | None:
+    def _plane_ambiguous(
+        self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], pose: geo.PoseFit, mask: NDArray[np.bool_],
+    ) -> bool:
         """The third model: a plane-induced homography, fitted when the essential model beat the rotation-only
-        one (there is parallax). Returns ``(model, R_rel, residuals, inliers, status)`` to flag the frame, or
-        None when the essential model stands.
+        one (there is parallax). True to flag the frame ("planar_ambiguity"), False when the essential model
+        stands.
 
         When the homography explains the tracks nearly as well as the essential model (median transfer error
         below ``_PLANAR_RESIDUAL_RATIO`` times the essential's median Sampson error: the tracks lie near one
         plane, a wall or door ahead, a facade beside the walker after a turn), the essential rotation is not
         determined: a plane admits two (rotation, baseline) solutions, about baseline/distance apart, that fit
         it equally (the homography's decomposition shows both). The frame is then flagged (LOW_QUALITY, the
-        rotation-only fit used, as when the essential and rotation-only fits disagree) when the two
+        chained rotation-only change used, as when the essential and rotation-only fits disagree) when the two
         solutions, or the essential and homography rotations, are more than ``_PLANAR_AMBIGUITY_DEG`` apart.
 
         Measured on seed 1 of the scenario clips at 320x240 (tuned there; seeds 2-5 and 640x480 are held out in
@@ -246,10 +293,10 @@ class FastEngine:
         hom = geo.homography_fit(q_kf, q_cur, self._focal, pose.rotation, inlier_px=self.s.inlier_px, method="dlt",
                                  use=mask)
         if hom is None:
-            return None
+            return False
         e_res = float(np.median(np.abs(pose.residuals_px[mask])))
         if float(np.median(hom.residuals_px[mask])) >= _PLANAR_RESIDUAL_RATIO * max(e_res, 1e-6):
-            return None
+            return False
         gap = geo.rotation_angle_deg(pose.rotation.T @ hom.rotation)
         # below a few tracking pixels the two solutions are within the tracking noise (160x120 tracking flagged
         # 6 % of a foot-drag walk's frames, all within 1 deg of the truth, with a fixed 1 deg)
@@ -257,12 +304,11 @@ class FastEngine:
         # two visible plane solutions (the images cannot tell), or the (degenerate) essential fit strayed from
         # the plane's rotation: flagged. Reporting the homography's own rotation instead was tried: its
         # single-frame DLT is too noisy (night: 2.4 deg frame-to-frame jumps, raw yaw 2.2 -> 6.9 deg).
-        if max(gap, hom.ambiguity_deg) <= threshold:
-            return None
-        return "rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY
+        return max(gap, hom.ambiguity_deg) > threshold
 
-    def _hold(self, t_s: float, status: EstimateStatus, n_tracks: int = 0) -> RotationEstimate:
-        return make_estimate(t_s, self._orientation, n_inliers=0, model="hold", status=status, n_tracks=n_tracks)
+    def _hold(self, t_s: float, status: EstimateStatus, reason: str, n_tracks: int = 0) -> RotationEstimate:
+        return make_estimate(t_s, self._orientation, n_inliers=0, model="hold", status=status, n_tracks=n_tracks,
+                             reason=reason)
 
     # ----------------------------------------------------------------------------------------------------------
     def push(self, grey: NDArray[np.uint8], t_s: float) -> RotationEstimate:
@@ -277,18 +323,23 @@ class FastEngine:
         if n < self.s.min_inliers:
             # Lost track (cap removed onto a new view, sudden blur): restart from here, holding orientation.
             self._restart(small)
-            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, n)
+            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, "tracking_lost", n)
         fit = self._fit(t_s, n)
         n_inliers = int(np.count_nonzero(fit.inliers))
         orientation = self._R_kf @ fit.rotation
         step_deg = geo.rotation_angle_deg(self._orientation.T @ orientation)
         if n_inliers < self.s.min_inliers or step_deg > self.s.max_frame_rotation_deg:
             self._restart(small)
-            return self._hold(t_s, EstimateStatus.LOW_QUALITY, n)
-        new_kf = self._accept(small, orientation, fit)
+            why = "few_inliers" if n_inliers < self.s.min_inliers else "implausible_step"
+            return self._hold(t_s, EstimateStatus.LOW_QUALITY, why, n)
+        dt = t_s - self._t_prev if self._t_prev is not None else 0.0
+        if fit.status is EstimateStatus.OK and dt > 0 and step_deg > self.s.max_ok_rate_deg_s * dt:
+            # tracking, motion blur and rolling shutter all degrade in a fast turn: the fit stands, flagged
+            fit = dataclasses.replace(fit, status=EstimateStatus.LOW_QUALITY, reason="fast_rotation")
+        new_kf = self._accept(small, orientation, fit, t_s)
         return make_estimate(
             t_s, self._orientation, n_inliers=n_inliers, model=fit.model, status=fit.status, n_tracks=n,
-            residual_px=float(np.median(fit.residuals_px)), keyframe=new_kf,
+            residual_px=float(np.median(fit.residuals_px)), keyframe=new_kf, reason=fit.reason,
         )
 
     # -- the steps of push -------------------------------------------------------------------------------------
@@ -304,9 +355,9 @@ class FastEngine:
         if float(cv2.meanStdDev(small)[1][0, 0]) < _UNIFORM_STD:
             # Lens cap / black frame: hold, and keep the last good frame as the one to track from.
             self.started = True
-            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES)
+            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, "featureless")
         if self._prev_small is not None and np.array_equal(small, self._prev_small):
-            return self._hold(t_s, EstimateStatus.REPEATED_FRAME, self._pts.shape[0])
+            return self._hold(t_s, EstimateStatus.REPEATED_FRAME, "repeated_frame", self._pts.shape[0])
         return None
 
     def _start(self, small: NDArray[np.uint8], t_s: float) -> RotationEstimate:
@@ -315,7 +366,7 @@ class FastEngine:
         self.started = True
         self._restart(small)
         if self._pts.shape[0] < self.s.min_inliers:
-            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, self._pts.shape[0])
+            return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, "few_features", self._pts.shape[0])
         self._prev_small = small
         status = EstimateStatus.FIRST_FRAME if first else EstimateStatus.OK
         return make_estimate(
@@ -356,34 +407,72 @@ class FastEngine:
             q_kf, q_cur, self._focal, rotation_init=self._R_rel, scale_px=sigma * 2, inlier_px=s.inlier_px,
             iterations=3,
         )
+        # the previous frame's estimate moved on by the rotation-only fit's frame-to-frame change: biased by one
+        # frame's parallax only (the fit against the keyframe, by the parallax since the keyframe), so the
+        # fallback of a flagged frame that joins its neighbours without a jump, and the check of every fit
+        chain = self._R_rel @ self._frame_step(q_cur, rot.inliers)
         fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.OK)
         # the rotation-only fit's median residual as an angle: the parallax since the keyframe (for _accept)
         self._parallax_deg = math.degrees(float(np.median(rot.residuals_px)) / self._focal)
         if float(np.median(rot.residuals_px)) > 0.5 * sigma and n >= max(8, s.min_inliers):
-            pose = self._essential_fit(q_kf, q_cur, rot.rotation)
+            pose, start = self._essential_fit(q_kf, q_cur, rot.rotation)
             mask = pose.inliers | rot.inliers
             g_rot = geo.gric(rot.residuals_px[mask], sigma, 2, 3)
             g_ess = geo.gric(pose.residuals_px[mask], sigma, 3, 5)
-            choice = self._homography_choice(q_kf, q_cur, rot, pose, mask) if g_ess < g_rot else None
-            if choice is not None:
-                fit = _Fit(*choice)
+            if g_ess < g_rot and self._plane_ambiguous(q_kf, q_cur, pose, mask):
+                fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
+                           reason="planar_ambiguity")
             elif g_ess < g_rot:
-                if self._models_disagree(rot, pose):
+                # travel sideways to the view (the second start won): the rotation-only fit took the translation
+                # for a rotation, so its distance from the essential rotation is no sign of a wandering fit
+                if start == "ambiguous":
+                    fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
+                               reason="translation_ambiguity")
+                elif start != "sideways" and self._models_disagree(rot, pose):
                     # The essential fit wandered further from the rotation-only fit than the parallax explains:
-                    # use the rotation-only fit (biased by at most about the parallax, not by degrees) and say
-                    # so; keep the tracks either model accepts, since parallax pushes good tracks out of
-                    # the rotation-only inlier set.
-                    fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY)
+                    # use the chained rotation-only change (biased by about one frame's parallax, not by
+                    # degrees) and say so; keep the tracks either model accepts, since parallax pushes good
+                    # tracks out of the rotation-only inlier set.
+                    fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
+                               reason="models_disagree")
                     _log.debug("t=%.3f: essential and rotation-only fits disagree; rotation-only used", t_s)
                 else:
                     fit = _Fit("essential", pose.rotation, np.abs(pose.residuals_px), pose.inliers, EstimateStatus.OK)
+        if fit.status is EstimateStatus.OK and geo.rotation_angle_deg(chain.T @ fit.rotation) > _STEP_JUMP_DEG:
+            # the fit jumps away from where the frame-to-frame tracking puts it: a fit that changed minimum (the
+            # essential refinement's other basin), not a rotation the tracks saw; the chained change is used
+            fit = _Fit("rotation", chain, fit.residuals_px, fit.inliers, EstimateStatus.LOW_QUALITY,
+                       reason="step_inconsistent")
+        self._q_cur = q_cur
         return fit
 
-    def _accept(self, small: NDArray[np.uint8], orientation: NDArray[np.float64], fit: _Fit) -> bool:
+    def _frame_step(self, q_cur: NDArray[np.float64], inliers: NDArray[np.bool_]) -> NDArray[np.float64]:
+        """The rotation from the previous frame to this one by the rotation-only model on the same tracks
+        (two Cauchy-reweighted Kabsch solves over the rotation-only inliers): biased by one frame's parallax
+        only, where the fits against the keyframe carry the parallax since the keyframe and change with the
+        subset of tracks that survive (during a fast turn that change alone made 2-3 deg steps)."""
+        use = inliers if np.count_nonzero(inliers) >= self.s.min_inliers else np.ones(inliers.shape, bool)
+        a, b = self._q_prev[use], q_cur[use]
+        R = geo.rotation_from_bearings(a, b)
+        w = geo.cauchy_weights(geo.rotation_only_residuals_px(R, a, b, self._focal), 2 * self.s.feature_noise_px)
+        return geo.rotation_from_bearings(a, b, w)
+
+    def _accept(self, small: NDArray[np.uint8], orientation: NDArray[np.float64], fit: _Fit, t_s: float) -> bool:
         """Take the frame's orientation, keep the inlier tracks, start a new keyframe when due (returned)."""
         s = self.s
         self._orientation = orientation
         self._R_rel = fit.rotation
+        self._q_prev = self._q_cur
+        # the walker's heading: the camera's optical axis low-passed over _HEADING_TAU_S (a walker looks ahead
+        # on average; a torso turned towards a facade for a second leaves it behind)
+        fwd = orientation[:, 2]
+        if self._travel is None or self._t_prev is None:
+            self._travel = fwd.copy()
+        else:
+            gain = 1.0 - math.exp(-max(t_s - self._t_prev, 0.0) / _HEADING_TAU_S)
+            heading = self._travel + gain * (fwd - self._travel)
+            self._travel = heading / max(float(np.linalg.norm(heading)), 1e-12)
+        self._t_prev = t_s
         self._rejected = self._pts[~fit.inliers].reshape(-1, 2)  # where the image disagrees with the camera's motion
         self._keep(fit.inliers)
         self._frames_since_kf += 1
@@ -409,3 +498,10 @@ class _Fit:
     residuals_px: NDArray[np.float64]
     inliers: NDArray[np.bool_]
     status: EstimateStatus
+    #: why the frame is flagged (RotationEstimate.reason), empty when ok
+    reason: str = ""
+
+
+def _robust_cost(residuals_px: NDArray[np.float64], scale_px: float) -> float:
+    """The Cauchy cost the refinements minimise: ``sum log(1 + (r/s)^2)``."""
+    return float(np.sum(np.log1p((residuals_px / scale_px) ** 2)))

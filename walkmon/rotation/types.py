@@ -20,6 +20,7 @@ from walkmon.errors import ConfigError, InvalidInputError
 
 __all__ = [
     "DEFAULT_ROTATION_SETTINGS",
+    "FLAG_REASONS",
     "METHODS",
     "EstimateStatus",
     "RotationEstimate",
@@ -70,6 +71,9 @@ class RotationSettings:
         rotation-only fit's median residual as an angle: translation seen against near structure, a wall ahead):
         start a new keyframe when any is exceeded. ``keyframe_window``: keyframes kept for the sliding-window refinement of each new keyframe's
         orientation (1 = plain chaining). ``feature_noise_px``: tracking noise assumed by the GRIC model selection.
+        ``max_ok_rate_deg_s``: a frame turning faster than this is still estimated but flagged LOW_QUALITY
+        (``reason="fast_rotation"``): at a fast torso turn tracking, motion blur and rolling shutter degrade the
+        fit (walking itself turns a chest camera by a few tens of deg/s at most).
     both methods
         ``min_inliers``: fewer inliers than this holds the orientation. ``inlier_px``: inlier threshold.
         ``max_frame_rotation_deg``: a frame-to-frame change larger than this is rejected as implausible for a
@@ -97,6 +101,7 @@ class RotationSettings:
     min_inliers: int = 12
     inlier_px: float = 2.0
     max_frame_rotation_deg: float = 15.0
+    max_ok_rate_deg_s: float = 90.0
     akaze_threshold: float = 0.001
     match_radius_px: float = 25.0
     ratio_test: float = 0.8
@@ -124,6 +129,7 @@ class RotationSettings:
             "min_inliers": self.min_inliers >= 5,
             "inlier_px": self.inlier_px > 0,
             "max_frame_rotation_deg": self.max_frame_rotation_deg > 0,
+            "max_ok_rate_deg_s": self.max_ok_rate_deg_s > 0,
             "akaze_threshold": self.akaze_threshold > 0,
             "match_radius_px": self.match_radius_px > 0,
             "ratio_test": 0.0 < self.ratio_test <= 1.0,
@@ -138,6 +144,23 @@ class RotationSettings:
 
 DEFAULT_ROTATION_SETTINGS = RotationSettings()
 
+#: Why the fast method flags a frame (``RotationEstimate.reason``); the status says whether it was still
+#: estimated (``low_quality``, model ``rotation``: the previous frame's estimate moved on by the rotation-only
+#: fit's frame-to-frame change) or held (model ``hold``).
+FLAG_REASONS = {
+    "models_disagree": "the essential rotation strays from the rotation-only one beyond what the parallax explains",
+    "planar_ambiguity": "the tracks lie on one plane whose two rotations (or the essential's) differ",
+    "step_inconsistent": "the fit jumps away from the frame-to-frame tracking of the same points",
+    "translation_ambiguity": "looking sideways to the walker's heading, a translation and a rotation fit alike",
+    "fast_rotation": "turning faster than max_ok_rate_deg_s: tracking, blur and rolling shutter degrade",
+    "few_inliers": "fewer inliers than min_inliers: held",
+    "implausible_step": "a frame-to-frame change above max_frame_rotation_deg: held",
+    "tracking_lost": "fewer tracked points than min_inliers: held, tracking restarts",
+    "few_features": "fewer corners than min_inliers where tracking (re)starts: held",
+    "featureless": "a uniform frame (lens cap, darkness): held",
+    "repeated_frame": "the frame repeats the previous one: held",
+}
+
 
 @dataclass(frozen=True, slots=True)
 class RotationEstimate:
@@ -147,7 +170,7 @@ class RotationEstimate:
     ``model`` is ``"rotation"`` (rotation-only/homography), ``"essential"``, ``"hold"`` (orientation held,
     see ``status``) or ``"identity"`` (first frame). ``n_inliers`` counts matches that agree with the model,
     ``n_tracks`` the matches tried, ``residual_px`` their median error, ``keyframe`` whether this frame became
-    a keyframe.
+    a keyframe. ``reason`` says why a frame is not ok (empty when it is), one of :data:`FLAG_REASONS`.
     """
 
     t_s: float
@@ -159,6 +182,7 @@ class RotationEstimate:
     n_tracks: int = 0
     residual_px: float = math.nan
     keyframe: bool = False
+    reason: str = ""
 
     def __post_init__(self) -> None:
         R = np.array(self.rotation, dtype=float)
