@@ -111,7 +111,7 @@ def run(d: Path, overrides: dict | None = None) -> tuple[dict, float]:
         if e.status.value not in ("ok", "first_frame"):
             key = f"{e.status.value}{'/held' if e.model == 'hold' else ''}"
             statuses[key] = statuses.get(key, 0) + 1
-            why = e.reason or "unstated"
+            why = getattr(e, "reason", "") or "unstated"
             reasons[why] = reasons.get(why, 0) + 1
     ok_step = ok.copy()
     ok_step[0] = False

@@ -85,7 +85,7 @@ def test_sliding_essential_fit_is_flagged_not_trusted(foot_drag_320, monkeypatch
             scale_px=2 * self.s.feature_noise_px, inlier_px=self.s.inlier_px, iterations=4,
         )
         self._test_c = pose.centre
-        return pose
+        return pose, ""  # (fit, which start gave it): "" the first
 
     monkeypatch.setattr(_rotation_fast.FastEngine, "_essential_fit", warm_started_fit)
     settings = RotationSettings(min_tracking_width_px=16, min_feature_distance_px=32.0)

@@ -7,6 +7,7 @@ Layering (nothing imports upwards): :mod:`~walkmon.rotation.types` <- :mod:`~wal
 from walkmon.rotation.estimator import RotationEstimator
 from walkmon.rotation.types import (
     DEFAULT_ROTATION_SETTINGS,
+    FLAG_REASONS,
     METHODS,
     EstimateStatus,
     RotationEstimate,
@@ -17,6 +18,7 @@ from walkmon.rotation.types import (
 
 __all__ = [
     "DEFAULT_ROTATION_SETTINGS",
+    "FLAG_REASONS",
     "METHODS",
     "EstimateStatus",
     "RotationEstimate",
