@@ -5,7 +5,10 @@ tracked positions to normalised coordinates (undistorted), fit the rotation-only
 (Gauss-Newton started from the rotation-only fit) against the keyframe's positions of the same tracks, choose
 with GRIC, flag the frame when the essential rotation strays from the rotation-only one further than the
 parallax explains, drop outlier tracks, and start a new keyframe (re-detecting corners in the gaps) when tracks
-thin out, the rotation since the keyframe grows or the keyframe gets old. The orientation is the keyframe's
+thin out, the rotation since the keyframe grows or the keyframe gets old. A frame the images cannot support is
+flagged with its reason (types.FLAG_REASONS): models that disagree, a plane's ambiguous rotation, a translation
+past a near facade that fits as well as a rotation, a jump from the frame-to-frame tracking, a turn faster than
+``max_ok_rate_deg_s``. The orientation is the keyframe's
 orientation times the relative rotation, so error only accumulates once per keyframe, not once per frame.
 """
 
@@ -46,9 +49,9 @@ _DISAGREE_PARALLAX_RATIO = 2.0
 _PLANAR_RESIDUAL_RATIO = 5.0
 _PLANAR_AMBIGUITY_DEG = 1.0
 _PLANAR_AMBIGUITY_TRACK_PX = 4.0
-#: A second essential refinement starts from the walker's carried direction of travel when the first one's
-#: baseline is further than this from it (deg), and replaces the first when its robust cost is below
-#: _ALT_COST_RATIO times the first's. See FastEngine._essential_fit.
+#: A second essential refinement, started across the view, is tried when the camera looks more than this (deg)
+#: away from the walker's heading (the optical axis low-passed over _HEADING_TAU_S); it replaces the first when
+#: its robust cost is below _ALT_COST_RATIO times the first's. See FastEngine._essential_fit.
 _ALT_START_MIN_DEG = 30.0
 _ALT_COST_RATIO = 0.8
 _HEADING_TAU_S = 2.0
@@ -221,11 +224,13 @@ class FastEngine:
         facade 1-3 m away): the lateral translation's flow looks like a yaw, the rotation-only fit takes it as
         one, the closed-form baseline is then along the optical axis, and Gauss-Newton stays in that local
         minimum (turns seed 1, 640x480: 0.7 deg of yaw error per frame, status ok, its robust cost 2-20x the
-        true pose's). So a second refinement starts from the direction of travel carried from the last
-        accepted essential fits (in the first frame's axes, rotated into the keyframe), when that direction is
-        more than _ALT_START_MIN_DEG from the first fit's baseline (walking straight ahead both agree and the
-        second fit is skipped: no cost on the common path); it replaces the first only when its robust cost is
-        clearly lower (below _ALT_COST_RATIO times), never on a noise-level difference along the flat valley.
+        true pose's). So when the camera looks more than _ALT_START_MIN_DEG away from the walker's heading (the
+        optical axis low-passed over _HEADING_TAU_S, kept in the first frame's axes: a walker looks ahead on
+        average; a torso turned to a facade for a second leaves it behind), a second refinement starts with the
+        baseline across the view, towards the heading. Walking or standing while looking ahead skips it (no cost
+        on the common path). It replaces the first only when its robust cost is clearly lower (below
+        _ALT_COST_RATIO times), never on a noise-level difference along the flat valley. The heading is not
+        taken from the essential fits' baselines: fits in the wrong minimum dragged it along with the camera.
         Returns the fit and ``"sideways"`` when the second start gave it, ``"ambiguous"`` when neither start's
         cost is clearly lower and their rotations differ by more than _PLANAR_AMBIGUITY_DEG (the frame is then
         flagged: "translation_ambiguity"), else ``""``.
@@ -239,8 +244,8 @@ class FastEngine:
         travel = self._R_kf.T @ self._travel
         if travel[2] >= math.cos(math.radians(_ALT_START_MIN_DEG)):
             return pose, ""  # the camera looks along the walker's heading (or stands looking ahead)
-        # started across the view (the travel's component normal to the optical axis), at the far end of the
-        # valley from the first start: the carried travel itself lags a turn and can start in the wrong basin
+        # started across the view (the heading's component normal to the optical axis), at the far end of the
+        # valley from the first start: the heading itself lags a turn and, as a start, can fall in either basin
         c_alt = np.array([travel[0], travel[1], 0.0])
         if float(c_alt @ c_alt) < 1e-6:
             return pose, ""
@@ -250,7 +255,8 @@ class FastEngine:
         cost_alt, cost = _robust_cost(alt.residuals_px, 2 * sigma), _robust_cost(pose.residuals_px, 2 * sigma)
         if cost_alt < _ALT_COST_RATIO * cost:
             return alt, "sideways"
-        if cost_alt * _ALT_COST_RATIO <= cost and geo.rotation_angle_deg(pose.rotation.T @ alt.rotation) > _PLANAR_AMBIGUITY_DEG:
+        gap = geo.rotation_angle_deg(pose.rotation.T @ alt.rotation)
+        if cost_alt * _ALT_COST_RATIO <= cost and gap > _PLANAR_AMBIGUITY_DEG:
             return pose, "ambiguous"
         return pose, ""
 
@@ -280,7 +286,7 @@ class FastEngine:
         plane, a wall or door ahead, a facade beside the walker after a turn), the essential rotation is not
         determined: a plane admits two (rotation, baseline) solutions, about baseline/distance apart, that fit
         it equally (the homography's decomposition shows both). The frame is then flagged (LOW_QUALITY, the
-        chained rotation-only change used, as when the essential and rotation-only fits disagree) when the two
+        rotation-only fit used, as when the essential and rotation-only fits disagree) when the two
         solutions, or the essential and homography rotations, are more than ``_PLANAR_AMBIGUITY_DEG`` apart.
 
         Measured on seed 1 of the scenario clips at 320x240 (tuned there; seeds 2-5 and 640x480 are held out in
@@ -407,9 +413,8 @@ class FastEngine:
             q_kf, q_cur, self._focal, rotation_init=self._R_rel, scale_px=sigma * 2, inlier_px=s.inlier_px,
             iterations=3,
         )
-        # the previous frame's estimate moved on by the rotation-only fit's frame-to-frame change: biased by one
-        # frame's parallax only (the fit against the keyframe, by the parallax since the keyframe), so the
-        # fallback of a flagged frame that joins its neighbours without a jump, and the check of every fit
+        # the previous frame's estimate moved on by the rotation-only change between the two frames: every fit
+        # is checked against it (a jump from it is a fit that changed minimum, not a rotation the tracks saw)
         chain = self._R_rel @ self._frame_step(q_cur, rot.inliers)
         fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.OK)
         # the rotation-only fit's median residual as an angle: the parallax since the keyframe (for _accept)
@@ -423,16 +428,16 @@ class FastEngine:
                 fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
                            reason="planar_ambiguity")
             elif g_ess < g_rot:
-                # travel sideways to the view (the second start won): the rotation-only fit took the translation
-                # for a rotation, so its distance from the essential rotation is no sign of a wandering fit
-                if start == "ambiguous":
+                if start == "ambiguous":  # looking sideways to the heading, both starts fit and disagree
                     fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
                                reason="translation_ambiguity")
                 elif start != "sideways" and self._models_disagree(rot, pose):
                     # The essential fit wandered further from the rotation-only fit than the parallax explains:
-                    # use the chained rotation-only change (biased by about one frame's parallax, not by
-                    # degrees) and say so; keep the tracks either model accepts, since parallax pushes good
-                    # tracks out of the rotation-only inlier set.
+                    # use the rotation-only fit (biased by at most about the parallax, not by degrees) and say
+                    # so; keep the tracks either model accepts, since parallax pushes good tracks out of
+                    # the rotation-only inlier set. (When the second start won, travelling sideways to the view,
+                    # the rotation-only fit took the translation for a rotation: its distance from the essential
+                    # rotation is then no sign of a wandering fit.)
                     fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
                                reason="models_disagree")
                     _log.debug("t=%.3f: essential and rotation-only fits disagree; rotation-only used", t_s)
@@ -441,6 +446,7 @@ class FastEngine:
         if fit.status is EstimateStatus.OK and geo.rotation_angle_deg(chain.T @ fit.rotation) > _STEP_JUMP_DEG:
             # the fit jumps away from where the frame-to-frame tracking puts it: a fit that changed minimum (the
             # essential refinement's other basin), not a rotation the tracks saw; the chained change is used
+            # (biased by one frame's parallax only, it joins the neighbours without a jump)
             fit = _Fit("rotation", chain, fit.residuals_px, fit.inliers, EstimateStatus.LOW_QUALITY,
                        reason="step_inconsistent")
         self._q_cur = q_cur
