@@ -331,10 +331,11 @@ def angle_columns(estimates: Sequence[RotationEstimate]) -> dict[str, Any]:
 
 
 def status_summary(estimates: Sequence[RotationEstimate]) -> str:
-    """``"480 frames: 470 ok, 8 low_quality (rotation-only), 2 held (too_few_features)"``.
+    """``"480 frames: 470 ok, 8 low_quality (5 fast_rotation, 3 planar_ambiguity), 2 held (too_few_features)"``.
 
     ok counts the measured frames (``ok`` and the ``first_frame``); a frame whose status is not ok is either
-    still estimated (``low_quality`` with the rotation-only fit) and counted under its status, or held (model
+    still estimated (``low_quality``) and counted under its status with its reasons
+    (:data:`walkmon.rotation.FLAG_REASONS`; "rotation-only" when an estimate gives none), or held (model
     ``hold``: the last orientation repeated) and counted under "held" with its statuses. Zero counts are left out.
     """
     from collections import Counter  # noqa: PLC0415
@@ -343,8 +344,14 @@ def status_summary(estimates: Sequence[RotationEstimate]) -> str:
     estimated = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model != "hold")
     held = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model == "hold")
     parts = [f"{n_ok} ok"] if n_ok else []
-    parts += [f"{n} {status}{' (rotation-only)' if status == 'low_quality' else ''}"
-              for status, n in sorted(estimated.items())]
+    for status, n in sorted(estimated.items()):
+        why = Counter(e.reason for e in estimates
+                      if e.status.value == status and e.model != "hold" and not e.status.is_measured)
+        if set(why) == {""}:  # no reason given (the paper method): the fast method's old label
+            parts.append(f"{n} {status}{' (rotation-only)' if status == 'low_quality' else ''}")
+        else:
+            reasons = ", ".join(f"{k} {r or 'unstated'}" for r, k in why.most_common())
+            parts.append(f"{n} {status} ({reasons})")
     if held:
         why = ", ".join(status if len(held) == 1 else f"{n} {status}" for status, n in sorted(held.items()))
         parts.append(f"{sum(held.values())} held ({why})")

@@ -108,6 +108,10 @@ def test_status_summary_tells_estimated_low_quality_from_held_frames():
                                       "4 held (1 low_quality, 2 repeated_frame, 1 too_few_features)")
     assert status_summary(frames[:6]) == "6 frames: 6 ok"
     assert status_summary([est(S.TOO_FEW_FEATURES, "hold")] * 2) == "2 frames: 2 held (too_few_features)"
+    # the fast method says why it flags a frame: the summary counts the reasons
+    flagged = [make_estimate(0.0, np.eye(3), n_inliers=9, model=m, status=S.LOW_QUALITY, reason=r)
+               for m, r in [("essential", "fast_rotation")] * 2 + [("rotation", "planar_ambiguity")]]
+    assert status_summary(frames[:6] + flagged) == "9 frames: 6 ok, 3 low_quality (2 fast_rotation, 1 planar_ambiguity)"
 
 
 def test_analyze_with_calibration_and_paper_method(small_video, tmp_path):
