@@ -417,6 +417,7 @@ class FastEngine:
         # is checked against it (a jump from it is a fit that changed minimum, not a rotation the tracks saw)
         chain = self._R_rel @ self._frame_step(q_cur, rot.inliers)
         fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.OK)
+        start = ""
         # the rotation-only fit's median residual as an angle: the parallax since the keyframe (for _accept)
         self._parallax_deg = math.degrees(float(np.median(rot.residuals_px)) / self._focal)
         if float(np.median(rot.residuals_px)) > 0.5 * sigma and n >= max(8, s.min_inliers):
@@ -443,7 +444,10 @@ class FastEngine:
                     _log.debug("t=%.3f: essential and rotation-only fits disagree; rotation-only used", t_s)
                 else:
                     fit = _Fit("essential", pose.rotation, np.abs(pose.residuals_px), pose.inliers, EstimateStatus.OK)
-        if fit.status is EstimateStatus.OK and geo.rotation_angle_deg(chain.T @ fit.rotation) > _STEP_JUMP_DEG:
+        # (not when the second start won: travelling sideways to the view, the rotation-only change between the
+        # frames is the biased one, by the translation's 0.5-1 deg a frame past a facade)
+        if (fit.status is EstimateStatus.OK and start != "sideways"
+                and geo.rotation_angle_deg(chain.T @ fit.rotation) > _STEP_JUMP_DEG):
             # the fit jumps away from where the frame-to-frame tracking puts it: a fit that changed minimum (the
             # essential refinement's other basin), not a rotation the tracks saw; the chained change is used
             # (biased by one frame's parallax only, it joins the neighbours without a jump)
