@@ -60,6 +60,8 @@ _HEADING_TAU_S = 2.0
 _STEP_JUMP_DEG = 1.0
 #: Tracks start Lucas-Kanade where the last frame's rotation would carry them when it exceeded this (deg).
 _PREDICT_MIN_STEP_DEG = 1.0
+#: A frame-to-frame rotation differing from the previous one by more than this (deg) is held as implausible.
+_MAX_STEP_CHANGE_DEG = 4.0
 #: ``min_feature_distance_px`` is given for a view this wide and scaled with the frame width.
 _REFERENCE_WIDTH_PX = 640.0
 
@@ -336,8 +338,12 @@ class FastEngine:
         fit = self._fit(t_s, n)
         n_inliers = int(np.count_nonzero(fit.inliers))
         orientation = self._R_kf @ fit.rotation
-        step_deg = geo.rotation_angle_deg(self._orientation.T @ orientation)
-        if n_inliers < self.s.min_inliers or step_deg > self.s.max_frame_rotation_deg:
+        step = self._orientation.T @ orientation
+        step_deg = geo.rotation_angle_deg(step)
+        # a change of turning rate beyond _MAX_STEP_CHANGE_DEG in one frame is no torso's: tracks that latched
+        # onto a repeated pattern (facade windows) from a wrong start moved coherently (turns seed 4: 11 deg)
+        jerk = self._last_step is not None and geo.rotation_angle_deg(self._last_step.T @ step) > _MAX_STEP_CHANGE_DEG
+        if n_inliers < self.s.min_inliers or step_deg > self.s.max_frame_rotation_deg or jerk:
             self._restart(small)
             why = "few_inliers" if n_inliers < self.s.min_inliers else "implausible_step"
             return self._hold(t_s, EstimateStatus.LOW_QUALITY, why, n)
