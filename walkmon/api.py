@@ -345,12 +345,12 @@ def status_summary(estimates: Sequence[RotationEstimate]) -> str:
     held = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model == "hold")
     parts = [f"{n_ok} ok"] if n_ok else []
     for status, n in sorted(estimated.items()):
-        why = Counter(e.reason for e in estimates
-                      if e.status.value == status and e.model != "hold" and not e.status.is_measured)
-        if set(why) == {""}:  # no reason given (the paper method): the fast method's old label
+        given = Counter(e.reason for e in estimates
+                        if e.status.value == status and e.model != "hold" and not e.status.is_measured)
+        if set(given) == {""}:  # no reason given (the paper method): the fast method's old label
             parts.append(f"{n} {status}{' (rotation-only)' if status == 'low_quality' else ''}")
         else:
-            reasons = ", ".join(f"{k} {r or 'unstated'}" for r, k in why.most_common())
+            reasons = ", ".join(f"{k} {r or 'unstated'}" for r, k in given.most_common())
             parts.append(f"{n} {status} ({reasons})")
     if held:
         why = ", ".join(status if len(held) == 1 else f"{n} {status}" for status, n in sorted(held.items()))
