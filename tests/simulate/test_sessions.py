@@ -77,7 +77,7 @@ def test_session_script_is_taken_literally(model) -> None:
         ("normal:5,turn:90:99", "turn duration"),
         ("normal:5,pause", "needs a duration"),
         ("normal:5,pause:0", "zero duration"),
-        ("normal:5,sit:3,turn:90", "unknown walk type"),
+        ("normal:5,sitting:3,turn:90", "unknown walk type"),
     ],
 )
 def test_bad_session_scripts(script, fragment) -> None:
@@ -137,7 +137,9 @@ def test_initial_contacts_are_the_vertical_acceleration_peaks(walk) -> None:
     peaks, _ = find_peaks(up, distance=int(0.25 / DT))
     prominence = peak_prominences(up, peaks)[0]
     nearest = np.array([np.min(np.abs(t[peaks] - s)) for s in steps])
-    assert np.median(nearest) < 0.01
+    # a limp's contacts sit off the middle of the step cycle (alternating step times): the phase speeds up or
+    # slows down through them, which moves the acceleration peak by ~1-2 % of a step
+    assert np.median(nearest) < (0.02 if walk == "right_foot_drag" else 0.01)
     assert nearest.max() < 0.06  # every step is a peak
     # and no other peak while stepping comes near a step's: the mid-step hump stays below half of it
     is_step = np.array([np.min(np.abs(steps - p)) < 0.06 for p in t[peaks]])
@@ -297,3 +299,58 @@ def test_cli_unkind_session(tmp_path, capsys) -> None:
     assert meta["walk"] == script and meta["session_script"] is True
     assert main(["simulate", "--unkind", "--walk", "stand", "--out", str(tmp_path / "x"), "--no-video"]) == 2
     assert "built around a walk type" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------------- limp and unknown activity
+def _acc_peaks(m: GaitModel, a: float, b: float) -> np.ndarray:
+    """Times of the upward acceleration peaks (one per step) between a and b, read from the motion."""
+    t = np.arange(a, b, DT)
+    up = -m.acceleration_mps2(t)[:, 1]
+    peaks, _ = find_peaks(up, distance=int(0.35 / DT), prominence=0.3 * np.ptp(up))
+    return t[peaks]
+
+
+@pytest.mark.parametrize(("walk", "lo", "hi"), [("right_foot_drag", 1.15, 1.35), ("normal", 0.95, 1.06)])
+def test_a_dragged_foot_alternates_long_and_short_steps(walk, lo, hi) -> None:
+    m = GaitModel(f"{walk}:14", seed=5, stand_s=0.0)
+    steps, feet = m.step_times_s()
+    d = np.diff(steps)
+    ends_right = feet[1:] == "R"
+    assert lo < d[ends_right].mean() / d[~ends_right].mean() < hi  # the step onto the right foot is the long one
+    peaks = _acc_peaks(m, 1.0, m.duration_s - 1.0)  # the same alternation in the trunk's motion itself
+    dp = np.diff(peaks)
+    ratio = max(dp[0::2].mean(), dp[1::2].mean()) / min(dp[0::2].mean(), dp[1::2].mean())
+    assert lo < ratio < hi
+
+
+def test_unknown_pieces_move_without_a_gait_rhythm() -> None:
+    m = GaitModel("stand:1,sit:10,pause:1.5,normal:6,pause:1,pickup:4,pause:1,camera:5,stand:1", seed=2)
+    kinds = [p.activity for p in m.pieces]
+    assert kinds.count("unknown") == 3
+    sit, pickup, camera = (p for p in m.pieces if p.activity == "unknown")
+    steps, _ = m.step_times_s()
+    for p in (sit, pickup, camera):
+        assert not np.any((steps > p.start_s) & (steps < p.end_s))  # no initial contact while not walking
+        t = np.arange(p.start_s, p.end_s, DT)
+        assert np.degrees(np.abs(m.angular_velocity_rps(t))).max() > 10.0  # it moves
+    t_sit = np.arange(sit.start_s + 3.0, sit.end_s - 3.0, 0.01)
+    tilt = m.body_angles_deg(t_sit)
+    assert np.all(np.abs(tilt[:, 0]) > 20.0)  # seated: the chest well off the standing pose
+    assert np.all(m.position_m(t_sit)[:, 1] > 0.35)  # and 0.4-0.5 m lower (y points down)
+    mid = 0.5 * (pickup.start_s + pickup.end_s)
+    assert m.body_angles_deg([mid])[0, 0] < -40.0  # bent down to the ground
+    t_cam = np.arange(camera.start_s + 0.5, camera.end_s - 0.5, DT)
+    rate = np.degrees(np.linalg.norm(m.angular_velocity_rps(t_cam), axis=1))
+    assert np.sqrt(np.mean(rate**2)) > 10.0
+    # smooth at the edges (the IMU model differentiates twice) and still before and after
+    for p in (sit, pickup, camera):
+        for edge in (p.start_s, p.end_s):
+            acc = m.acceleration_mps2(np.array([edge - 0.3, edge - 0.002, edge + 0.002]))
+            assert np.abs(acc[0]).max() < 1e-6 or np.abs(acc[2] - acc[1]).max() < 0.05
+    assert [b["n_steps"] > 4 for b in m.bouts()] == [True]
+
+
+def test_most_unkind_sessions_move_without_walking_once() -> None:
+    n = sum("unknown" in {p.activity for p in GaitModel(unkind_script(s, w), seed=s).pieces}
+            for w in UNKIND_WALKS for s in range(1, 6))
+    assert 10 <= n <= 19

@@ -5,4 +5,6 @@ from __future__ import annotations
 
 #: 1: the simulator up to issue 11 (implicit; never written). 2: session scripts (turns, pauses, gait
 #: initiation/termination, posture changes), truth_timeline.csv/truth_steps.csv, unwrapped truth yaw, version in meta.json.
-SIMULATOR_VERSION = 2
+#: 3: unknown activity in session scripts (sit, pickup, camera), session steps are initial contacts (half-integer
+#: phases) so a walk type's alternating-step asymmetry shows in the contacts' step times (right_foot_drag).
+SIMULATOR_VERSION = 3

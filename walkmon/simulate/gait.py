@@ -45,6 +45,7 @@ __all__ = [
     "ACTIVITIES",
     "SESSION_TOKENS",
     "STANDING_S",
+    "UNKNOWN_TOKENS",
     "WALK_TYPES",
     "GaitModel",
     "Segment",
@@ -61,9 +62,14 @@ WALK_TYPES = ("normal", "left_shoulder_down", "right_foot_drag", "bend", "stand"
 
 #: Script tokens that make a script a literal *session script*: ``turn:DEGREES[:SECONDS]`` (> 0 turns right) and
 #: ``pause:SECONDS`` (standing still between two walks, like ``stand``).
-SESSION_TOKENS = ("turn", "pause")
+SESSION_TOKENS = ("turn", "pause", "sit", "pickup", "camera")
 
-#: Activities of the truth timeline (``unknown`` is reserved: the simulator does not produce it yet).
+#: Session-script tokens of moving without a gait rhythm, the truth's ``unknown`` activity: ``sit:SECONDS``
+#: (sit down, sit, stand up), ``pickup:SECONDS`` (bend down to pick something up and straighten again),
+#: ``camera:SECONDS`` (handling the camera: irregular rotations of the chest mount while standing).
+UNKNOWN_TOKENS = ("sit", "pickup", "camera")
+
+#: Activities of the truth timeline (``unknown``: the :data:`UNKNOWN_TOKENS` pieces).
 ACTIVITIES = ("standing", "walking", "turning", "unknown")
 
 #: Turn angles a script may ask for, degrees (absolute value).
@@ -183,8 +189,8 @@ def parse_walk_script(script: str, seconds: float | None = None, *, stand_s: flo
             msg = f"walk script {script!r}: cannot parse segment {part!r} (expected TYPE or TYPE:SECONDS)"
             raise InvalidInputError(msg)
         walk, dur = m.group(1), m.group(2)
-        if walk not in WALK_TYPES and walk != "pause":
-            known = ", ".join((*WALK_TYPES, "pause", "turn"))
+        if walk not in WALK_TYPES and walk != "pause" and walk not in UNKNOWN_TOKENS:
+            known = ", ".join((*WALK_TYPES, "pause", "turn", *UNKNOWN_TOKENS))
             msg = f"walk script {script!r}: unknown walk type {walk!r} (known: {known})"
             raise InvalidInputError(msg)
         if dur is None:
@@ -554,16 +560,17 @@ class GaitModel:
         weight shift before the first contact and the closing step after the last are standing in the truth."""
         steps, _ = self.step_times_s()
         pieces = list(self.pieces)
+        still = ("standing", "unknown")
         if steps.size == 0:
             return
         for i in range(len(pieces) - 1):
             a, b = pieces[i], pieces[i + 1]
-            if a.activity == "standing" and b.activity != "standing":  # gait initiation
+            if a.activity in still and b.activity not in still:  # gait initiation
                 after = steps[steps > a.end_s]
                 if after.size and after[0] < b.end_s:
                     t = float(after[0])
                     pieces[i], pieces[i + 1] = replace(a, end_s=t), replace(b, start_s=t)
-            elif a.activity != "standing" and b.activity == "standing":  # gait termination
+            elif a.activity not in still and b.activity in still:  # gait termination
                 before = steps[steps < b.start_s]
                 if before.size and before[-1] > a.start_s:
                     t = float(before[-1])
@@ -607,7 +614,7 @@ class GaitModel:
         return times[keep], sides
 
     def bouts(self) -> list[dict[str, Any]]:
-        """True walking bouts: the initial contacts between two standing phases, turns included.
+        """True walking bouts: the initial contacts between two standing (or unknown) phases, turns included.
 
         Each bout: ``start_s``/``end_s`` (first and last initial contact), ``n_steps``, ``cadence_spm``
         (``60 * (n_steps - 1) / (end_s - start_s)``, None under 2 steps), ``turns`` (count) and ``labels`` (the
@@ -618,8 +625,9 @@ class GaitModel:
         if times.size == 0:
             return out
         group = [0]
+        breaks = [(p.start_s, p.end_s) for p in self.pieces if p.activity in ("standing", "unknown")]
         for i in range(1, times.size):
-            if any(times[i - 1] < a and b < times[i] for a, b in self.standing_intervals_s):
+            if any(times[i - 1] <= a and b <= times[i] for a, b in breaks):
                 out.append(self._bout(times[group]))
                 group = []
             group.append(i)
@@ -664,6 +672,71 @@ def _smootherstep(x: NDArray[np.float64]) -> NDArray[np.float64]:
     return x * x * x * (x * (6.0 * x - 15.0) + 10.0)
 
 
+#: Script pieces without stepping: standing still and moving without a gait rhythm.
+_STILL_KINDS = ("stand", *UNKNOWN_TOKENS)
+
+
+def _unknown_motion(
+    kind: str, t: NDArray[np.float64], a: float, b: float, heading_rad: NDArray[np.float64], rng: np.random.Generator
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Angle (pitch, yaw, roll; degrees) and position (metres, world frame) offsets of an unknown piece over
+    ``[a, b]`` on the grid ``t``, zero outside it and C2 at its ends (the IMU model differentiates twice).
+
+    * ``sit``: sit down over 1.5-2.5 s (trunk flexes forward 25-40 deg, the chest drops 0.40-0.50 m), sit with the
+      trunk 22-35 deg from upright (slumped forward or reclined against a backrest: a chest sensor reads well
+      outside standing's +-10 deg), a slow postural sway, stand up the same way;
+    * ``pickup``: bend down to pick something up: trunk flexion 45-75 deg with knees bent (the chest drops
+      0.25-0.45 m and moves forward), held 0.5-2 s, and up again, each way 0.8-1.5 s;
+    * ``camera``: handling the camera (straightening the strap or the mount) while standing: irregular rotations
+      of 5-20 deg per axis at 0.3-2 Hz and a few centimetres of motion, faded in and out over 0.5 s.
+    """
+    ang = np.zeros((t.size, 3))
+    pos = np.zeros((t.size, 3))
+    dur = b - a
+    fwd = np.stack([np.sin(heading_rad), np.zeros_like(heading_rad), np.cos(heading_rad)], axis=1)
+
+    def ramp(t0: float, width: float) -> NDArray[np.float64]:
+        return _smootherstep((t - t0) / width)
+
+    def bump(t0: float, width: float) -> NDArray[np.float64]:  # 0 -> 1 -> 0 over [t0, t0 + width], C2
+        x = np.clip((t - t0) / width, 0.0, 1.0)
+        return (4.0 * x * (1.0 - x)) ** 3
+
+    def smooth_noise(std: float, max_hz: float) -> NDArray[np.float64]:  # random knots every 1 / (2 max_hz)
+        n = int(np.ceil((dur + 1.0) * max_hz * 2)) + 2
+        knots = np.linspace(a - 0.5, b + 0.5, n)
+        return CubicSpline(knots, rng.standard_normal(n) * std)(np.clip(t, a - 0.5, b + 0.5))
+
+    if kind == "sit":
+        down = float(min(rng.uniform(1.5, 2.5), 0.35 * dur))
+        flex = float(rng.uniform(25.0, 40.0))
+        seat = float(rng.uniform(22.0, 35.0)) * float(rng.choice([-1.0, 1.0]))  # < 0 slumped forward
+        drop = float(rng.uniform(0.40, 0.50))
+        w = ramp(a, down) * (1.0 - ramp(b - down, down))
+        sway = smooth_noise(0.4, 0.5) * ramp(a + down, 0.5) * (1.0 - ramp(b - down - 0.5, 0.5))
+        ang[:, 0] = seat * w - flex * (bump(a, down) + bump(b - down, down)) + sway
+        ang[:, 2] = 0.5 * sway
+        pos[:, 1] = drop * w
+        pos += (0.15 * w)[:, None] * fwd
+    elif kind == "pickup":
+        move = float(min(rng.uniform(0.8, 1.5), 0.45 * dur))
+        flex = float(rng.uniform(45.0, 75.0))
+        w = ramp(a, move) * (1.0 - ramp(b - move, move))
+        lean = np.radians(flex * w)
+        ang[:, 0] = -flex * w
+        ang[:, 2] = float(rng.uniform(-8.0, 8.0)) * w
+        pos[:, 1] = _HIP_TO_CAMERA_M * (1.0 - np.cos(lean)) + float(rng.uniform(0.15, 0.30)) * w
+        pos += (_HIP_TO_CAMERA_M * np.sin(lean))[:, None] * fwd
+    else:  # camera
+        fade = float(min(0.5, 0.3 * dur))
+        w = ramp(a, fade) * (1.0 - ramp(b - fade, fade))
+        for k in range(3):
+            ang[:, k] = float(rng.uniform(5.0, 20.0)) * smooth_noise(0.7, 2.0) * w
+        for k in range(3):
+            pos[:, k] = 0.03 * smooth_noise(0.7, 2.0) * w
+    return ang, pos
+
+
 #: Parameters blended between the pieces of a walking run (posture and gait amplitudes).
 _BLENDED = (
     "cadence_spm",
@@ -684,7 +757,7 @@ _BLENDED = (
 class _Piece:
     """A piece of a session script while it is being laid out (times are filled in as the runs are stepped)."""
 
-    kind: str  # a walk type, "turn" or "stand"
+    kind: str  # a walk type, "turn", "stand" or one of UNKNOWN_TOKENS
     duration_s: float
     params: SegmentParams
     turn_deg: float = 0.0
@@ -712,7 +785,8 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
     pieces: list[_Piece] = []
     for seg in script_segments:
         kind = "stand" if seg.walk in ("stand", "pause") else seg.walk
-        params = _draw_params("normal" if kind == "turn" else kind, 0.0, 0.0, rng)
+        params = _draw_params("normal" if kind == "turn" else "stand" if kind in UNKNOWN_TOKENS else kind, 0.0, 0.0,
+                              rng)
         turn_rate = float(rng.uniform(60.0, 90.0))  # mean turning rate, deg/s (peak 1.9x)
         turn_speed = float(rng.uniform(0.3, 0.55))  # walking speed while turning, fraction
         turn_cadence = float(rng.uniform(0.9, 1.0))
@@ -728,13 +802,13 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
     # runs: maximal sequences of stepping pieces between standing pieces
     blocks: list[list[_Piece]] = []
     for p in pieces:
-        if p.kind == "stand" or not blocks or blocks[-1][0].kind == "stand":
+        if p.kind in _STILL_KINDS or not blocks or blocks[-1][0].kind in _STILL_KINDS:
             blocks.append([p])
         else:
             blocks[-1].append(p)
     # turns take the posture of the walk before them in their run (else the one after); speed scaled by it
     for block in blocks:
-        walks = [p for p in block if p.kind not in ("stand", "turn")]
+        walks = [p for p in block if p.kind not in ("turn", *_STILL_KINDS)]
         for i, p in enumerate(block):
             if p.kind != "turn":
                 continue
@@ -757,7 +831,7 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
     t = 0.0
     phase = 0.0
     for bi, block in enumerate(blocks):
-        if block[0].kind == "stand":
+        if block[0].kind in _STILL_KINDS:
             block[0].start_s, block[0].end_s = t, t + block[0].duration_s
             t = block[0].end_s
             continue
@@ -775,13 +849,14 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
             return float(_blend_run(np.array([tt]), block, name)[0])
 
         steps = [a - 1.5 if mid_start else a]
+        asym_k: list[float] = []  # the walk's left/right asymmetry at each step
         k = 0
         stopping_from = None
         while True:
             tk = steps[-1]
             base = 60.0 / at("cadence_spm", tk)
-            side = 1.0 if (round(phase) + k) % 2 == 0 else -1.0
-            factor = 1.0 + side * 0.5 * at("asymmetry", tk) * 0.6 + at("step_jitter", tk) * rng.standard_normal()
+            asym_k.append(at("asymmetry", tk))
+            factor = 1.0 + at("step_jitter", tk) * rng.standard_normal()
             rate = 1.0
             if not mid_start and k < n_on:
                 rate = r_on + (1.0 - r_on) * float(_smoothstep(np.array(k / n_on)))
@@ -807,9 +882,9 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
                 block[-2].end_s = block[-1].start_s
         # phase knots: filler knots through the standing before this run, then the steps
         if knots_t:
-            gap = steps[0] - knots_t[-1]
+            gap = steps[0] - max(knots_t)
             m = max(1, round(gap * 1.8))
-            t_prev = knots_t[-1]
+            t_prev = max(knots_t)
             for i in range(1, m):
                 knots_t.append(t_prev + gap * i / m)
                 knots_phi.append(phase + i)
@@ -823,6 +898,18 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
         for i, st in enumerate(steps):
             knots_t.append(st)
             knots_phi.append(phase + i)
+        # Initial contacts lie at half-integer phases (the trunk lowest, the upward acceleration at its peak).
+        # A limp (asymmetry > 0) moves them off the middle of the step cycle, alternately early and late, so
+        # that the contact-to-contact step times alternate long and short (step time ratio about 1 + 0.3 x
+        # asymmetry: 1.23 for right_foot_drag; hemiparetic gait shows 1.1-1.3, healthy gait below ~1.06,
+        # Patterson et al. 2010, Neurorehabil Neural Repair 24(9):783-790): the step that ends on the
+        # dragged right foot (its slower swing) is the long one. The contact of phase P + 1/2 is foot R when
+        # P is even.
+        for i in range(len(steps) - 1):
+            if asym_k[i] > 1e-3:
+                sigma = 1.0 if (phase + i) % 2 == 0 else -1.0
+                knots_t.append(steps[i] + (steps[i + 1] - steps[i]) * (0.5 + sigma * 0.15 * asym_k[i]))
+                knots_phi.append(phase + i + 0.5)
         run_phase0 = phase
         phase += len(steps) - 1
         runs.append({"block": block, "a": a, "b": b, "steps": steps, "mid_start": mid_start, "mid_end": mid_end,
@@ -830,7 +917,7 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
         t = b
     duration = t
     if not runs or not runs[-1]["mid_end"]:  # the session ends standing: filler knots after it
-        t_last = knots_t[-1] if knots_t else -1.5
+        t_last = max(knots_t) if knots_t else -1.5
         m = max(2, round((duration + 1.5 - t_last) * 1.8))
         for i in range(1, m + 1):
             knots_t.append(t_last + (duration + 1.5 - t_last) * i / m)
@@ -843,7 +930,8 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
         raise InvalidInputError(msg)
 
     grid = np.arange(-0.5, duration + 0.5 + 1.0 / _GRID_HZ, 1.0 / _GRID_HZ)
-    phase_spline = CubicSpline(np.array(knots_t), np.array(knots_phi))
+    order = np.argsort(knots_t, kind="stable")
+    phase_spline = CubicSpline(np.array(knots_t)[order], np.array(knots_phi)[order])
     phi = phase_spline(grid)
     if np.any(np.diff(phi) <= 0):  # pragma: no cover - guarded by the knot spacing
         msg = "internal error: non-monotonic gait phase"
@@ -920,10 +1008,17 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
     lean = np.radians(pitch_off)
     pos = path + (env * sway)[:, None] * right + fwd * (-_HIP_TO_CAMERA_M * np.sin(lean))[:, None]
     pos[:, 1] += -env * bob + _HIP_TO_CAMERA_M * (1.0 - np.cos(lean))
-    pos -= pos[i0]
     pitch_deg = pitch_off + env * pitch_osc
     roll_deg = roll_off + env * roll_osc
     yaw_deg = np.degrees(hd) + env * yaw_osc
+    for p in pieces:  # moving without a gait rhythm (the truth's unknown): added on top of standing still
+        if p.kind in UNKNOWN_TOKENS:
+            d_ang, d_pos = _unknown_motion(p.kind, grid, p.start_s, p.end_s, hd, rng)
+            pitch_deg += d_ang[:, 0]
+            yaw_deg += d_ang[:, 1]
+            roll_deg += d_ang[:, 2]
+            pos += d_pos
+    pos -= pos[i0]
 
     # the truth: pieces with their final times
     timeline: list[TimelinePiece] = []
@@ -940,6 +1035,9 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
         elif p.kind == "turn":
             timeline.append(TimelinePiece(a, b, "turning", "", p.turn_deg))
             walk = "turn"
+        elif p.kind in UNKNOWN_TOKENS:
+            timeline.append(TimelinePiece(a, b, "unknown", ""))
+            walk = "stand"
         else:
             timeline.append(TimelinePiece(a, b, "walking", p.kind))
             walk = p.kind

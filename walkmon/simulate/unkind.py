@@ -3,7 +3,8 @@
 ``unkind_script(seed, walk)`` draws a literal session script (see :mod:`walkmon.simulate.gait`) around one walk
 type: it starts standing for a random time or already walking, walks 2-4 bouts separated by pauses of 1-6 s,
 turns by 180° (U-turns) or by 90° towards a facade and 90° on (at once, after a pause in front of it or after a
-few steps towards it), changes posture in
+few steps towards it), moves without a gait rhythm once in most sessions (sits down on a bench, bends down to
+pick something up or handles the camera: the truth's ``unknown``), changes posture in
 the middle of a bout (to ``bend`` and back for a normal walker, to ``normal`` and back for the others, each
 posture held long enough to measure: >= 6 s) and ends standing or mid-walk. The same seed gives the same
 script; the script itself is the truth's description (``GaitModel`` lays it out and records the timeline).
@@ -27,7 +28,7 @@ def _s(x: float) -> str:
 
 
 def unkind_script(seed: int, walk: str = "normal") -> str:
-    """A random unkind session script around ``walk``, reproducible per ``seed`` (about 30-80 s long)."""
+    """A random unkind session script around ``walk``, reproducible per ``seed`` (about 30-100 s long)."""
     if walk not in UNKIND_WALKS:
         msg = f"unkind sessions are built around a walk type ({', '.join(UNKIND_WALKS)}), got {walk!r}"
         raise InvalidInputError(msg)
@@ -37,6 +38,7 @@ def unkind_script(seed: int, walk: str = "normal") -> str:
     rng = np.random.default_rng([int(seed), 0x0C1D, UNKIND_WALKS.index(walk)])
     other = "bend" if walk == "normal" else "normal"
     parts: list[str] = []
+    slots: list[int] = []  # where a pause between two bouts ends
     if rng.uniform() < 0.6:  # a standing start of any length, else the recording starts mid-walk
         parts.append(f"stand:{_s(rng.uniform(0.5, 5.0))}")
     n_bouts = int(rng.integers(2, 5))
@@ -63,6 +65,23 @@ def unkind_script(seed: int, walk: str = "normal") -> str:
             parts += [f"turn:{90 * sign * int(rng.choice([-1, 1]))}", f"{walk}:{_s(rng.uniform(4.0, 8.0))}"]
         if not last:
             parts.append(f"pause:{_s(rng.uniform(1.0, 6.0))}")
+            slots.append(len(parts))
     if rng.uniform() < 0.6:  # a standing end of any length, else the recording stops mid-walk
         parts.append(f"stand:{_s(rng.uniform(0.5, 4.0))}")
+    # moving without a gait rhythm (the truth's "unknown"), from a stream of its own so that the rest of the
+    # script stays what earlier simulator versions drew: most sessions sit down on a bench, bend down to pick
+    # something up or handle the camera once, between two bouts (after their pause) or at the start or end
+    u = np.random.default_rng([int(seed), 0x0C1E, UNKIND_WALKS.index(walk)])
+    if u.uniform() < 0.75:
+        kind = str(u.choice(["sit", "pickup", "camera"]))
+        secs = {"sit": (8.0, 15.0), "pickup": (3.0, 5.0), "camera": (3.0, 6.0)}[kind]
+        piece = [f"{kind}:{_s(u.uniform(*secs))}", f"pause:{_s(u.uniform(0.8, 2.0))}"]
+        where = int(u.integers(0, len(slots) + 2))
+        if where == 0:  # at the start: standing a moment, then it, then a pause before walking
+            parts[:0] = [f"stand:{_s(u.uniform(0.5, 2.0))}", *piece]
+        elif where == len(slots) + 1:  # at the end, after a pause
+            parts += [f"pause:{_s(u.uniform(0.8, 2.0))}", *piece]
+        else:  # between two bouts, after the pause
+            i = slots[where - 1]
+            parts[i:i] = piece
     return ",".join(parts)
