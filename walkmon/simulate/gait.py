@@ -687,8 +687,9 @@ def _unknown_motion(
       outside standing's +-10 deg), a slow postural sway, stand up the same way;
     * ``pickup``: bend down to pick something up: trunk flexion 45-75 deg with knees bent (the chest drops
       0.25-0.45 m and moves forward), held 0.5-2 s, and up again, each way 0.8-1.5 s;
-    * ``camera``: handling the camera (straightening the strap or the mount) while standing: irregular rotations
-      of 5-20 deg per axis at 0.3-2 Hz and a few centimetres of motion, faded in and out over 0.5 s.
+    * ``camera``: handling the camera (straightening the strap or the mount) while standing: a few irregular
+      adjustments (one per ~1.2 s, overlapping), each a smooth 0.6-1.8 s rotation of 5-20 deg per axis and up to
+      2 cm of motion, there and back.
     """
     ang = np.zeros((t.size, 3))
     pos = np.zeros((t.size, 3))
@@ -727,13 +728,14 @@ def _unknown_motion(
         ang[:, 2] = float(rng.uniform(-8.0, 8.0)) * w
         pos[:, 1] = _HIP_TO_CAMERA_M * (1.0 - np.cos(lean)) + float(rng.uniform(0.15, 0.30)) * w
         pos += (_HIP_TO_CAMERA_M * np.sin(lean))[:, None] * fwd
-    else:  # camera
-        fade = float(min(0.5, 0.3 * dur))
-        w = ramp(a, fade) * (1.0 - ramp(b - fade, fade))
-        for k in range(3):
-            ang[:, k] = float(rng.uniform(5.0, 20.0)) * smooth_noise(0.7, 2.0) * w
-        for k in range(3):
-            pos[:, k] = 0.03 * smooth_noise(0.7, 2.0) * w
+    else:  # camera: a few irregular adjustments (grab, turn or tilt, let go), each its own size and length
+        n = max(2, int(dur / 1.2))
+        starts = np.sort(rng.uniform(a, b - 0.6, size=n))
+        for t0 in starts:
+            width = float(min(rng.uniform(0.6, 1.8), b - t0))
+            shape = bump(float(t0), width)
+            ang += shape[:, None] * rng.uniform(5.0, 20.0, size=3) * rng.choice([-1.0, 1.0], size=3)
+            pos += shape[:, None] * rng.uniform(-0.02, 0.02, size=3)
     return ang, pos
 
 
