@@ -173,6 +173,7 @@ class Segmentation:
     #: steps of steady walking: bout steps minus the first and last ``edge_steps`` of each bout (gait
     #: initiation and termination) and minus steps within ``turn_margin_s`` of a turn
     steady_steps_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    still: tuple[bool, ...] = ()  # per timeline sample: the trunk still (before bouts and turns overwrite it)
 
     @property
     def walking_s(self) -> float:
@@ -329,6 +330,10 @@ def _step_lag(ac: NDArray[np.float64], lag_lo: int, lag_hi: int, fs: float) -> t
     """
     k = int(np.argmax(ac[lag_lo : lag_hi + 1])) + lag_lo
     r = float(ac[k])
+    if k <= lag_lo and ac[k] < ac[k - 1]:
+        # no peak, only the decay of a slow movement (bending down, sitting down): correlated at the shortest
+        # lag because it is smooth, not because it repeats
+        return 0.0, k / fs
     while k // 2 >= lag_lo * 0.9:
         half = k / 2.0
         a, b = max(1, int(half * 0.85)), min(len(ac) - 2, int(math.ceil(half * 1.15)))
@@ -531,7 +536,8 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
     steady = steady_state_steps(bouts, turns, s)
     if sig.heading_rate_deg_s is None:
         notes.append("no heading (accelerometer only): turns not detected, no yaw")
-    return Segmentation(tuple(bouts), turns, steps, grid, tuple(str(a) for a in act), sig.kind, tuple(notes), steady)
+    return Segmentation(tuple(bouts), turns, steps, grid, tuple(str(a) for a in act), sig.kind, tuple(notes), steady,
+                        tuple(bool(v) for v in still))
 
 
 def steady_state_steps(

@@ -75,6 +75,8 @@ class SessionSettings:
     smooth_s: float = 2.0
     still_tilt_deg: float = 20.0
     max_drift_deg: float = 8.0
+    transition_s: float = 1.5
+    pause_factor: float = 1.3
 
 
 DEFAULT_SESSION_SETTINGS = SessionSettings()
@@ -144,15 +146,30 @@ def slow_offset(t_s: ArrayLike, raw: NDArray[np.float64], target: NDArray[np.flo
 def _upright(
     t: NDArray, a: NDArray, seg: Segmentation, abs_deg: NDArray | None, s: SessionSettings
 ) -> tuple[NDArray[np.float64], str, tuple[float, float] | None]:
-    """Upright (pitch, yaw, roll) reference in the angles' frame, how it was found, and the standing phase."""
+    """Upright (pitch, yaw, roll) reference in the angles' frame, how it was found, and the standing phase.
+
+    A still phase is taken for standing only when its tilt is within ``still_tilt_deg`` of the walking
+    posture (the median over the bouts; gravity pitch/roll with an IMU, else the start-relative angles): a
+    person sitting on a bench, lying or bent down is still too, and taking that for upright would read every
+    walk as tilted by the seat's angle."""
     act = np.asarray(seg.activity)
     hop = float(seg.timeline_t_s[1] - seg.timeline_t_s[0]) if len(seg.timeline_t_s) > 1 else 0.1
     runs = _runs(act == "standing")
     has_abs = abs_deg is not None and np.isfinite(abs_deg).all(axis=1).mean() > 0.5
+    tilt = abs_deg[:, :2] if has_abs and abs_deg is not None else a[:, [0, 2]]
+    in_bouts = np.zeros(t.shape, bool)
+    for b in seg.bouts:
+        in_bouts |= (t >= b.start_s) & (t <= b.end_s)
+    ok = in_bouts & np.isfinite(tilt).all(axis=1)
+    walking_tilt = np.median(tilt[ok], axis=0) if ok.sum() >= 3 else None
     for i0, i1 in runs:
         if (i1 - i0) * hop >= s.min_standing_s:
             t0, t1 = float(seg.timeline_t_s[i0]), float(seg.timeline_t_s[i1 - 1])
             m = (t >= t0) & (t <= t1)
+            fine = m & np.isfinite(tilt).all(axis=1)
+            if walking_tilt is not None and fine.sum() >= 3 and \
+                    np.max(np.abs(np.median(tilt[fine], axis=0) - walking_tilt)) > s.still_tilt_deg:
+                continue  # still but far from the walking posture: sitting, lying or bent down
             if m.sum() >= 3:
                 ref = np.median(a[m], axis=0)
                 where = f"first standing phase {t0:.1f}-{t1:.1f} s"
@@ -381,6 +398,7 @@ def analyze_session(
     dominant, share, cls = _dominant(label_time, seg_docs, seg)
     asym = _weighted_asym(weighted)
     activity = _not_upright_is_unknown(np.asarray(seg.activity, dtype=object), seg.timeline_t_s, t, a, s)
+    activity = _settle_timeline(activity, seg, s)
     seg = replace(seg, activity=tuple(str(v) for v in activity))
     activity_s = {k: float(np.sum(activity == k)) * activity_settings.hop_s
                   for k in ("standing", "walking", "turning", "unknown")}
@@ -526,6 +544,63 @@ def _not_upright_is_unknown(
     r = np.interp(grid, t, a[:, 2])
     out = activity.copy()
     out[(out == "standing") & ((np.abs(p) > s.still_tilt_deg) | (np.abs(r) > s.still_tilt_deg))] = "unknown"
+    return out
+
+
+def _settle_timeline(activity: NDArray, seg: Segmentation, s: SessionSettings) -> NDArray:
+    """The per-hop timeline made consistent with the bout convention (walking from a bout's first to its last
+    initial contact, pauses < 3 s joining bouts) and with what the body does between steps:
+
+    * a **pause inside a bout** (the trunk still for >= 0.5 s) is ``standing`` from the last regular step
+      before it to the first regular step after it (regular: its stride away from the pause is at most
+      ``pause_factor`` x the bout's median stride; a weight shift in the pause taken for a step is passed
+      over); the bout keeps it (Mobilise-D: a break < 3 s does not end a walking bout, and ``walking_s`` is
+      the bouts' time), the timeline says what the person did;
+    * **gait initiation and termination**: movement without a gait rhythm for at most ``transition_s`` between
+      standing and a bout (the weight shift before the first contact, the closing step after the last) is
+      ``standing``: the field counts it outside the bout, and the person stands on both feet;
+    * a recording that **starts or ends mid-walk**: at most ``transition_s`` without detected steps between the
+      recording's edge and a bout is ``walking`` (the step detector needs half a window of context, so the
+      contacts nearest the edges are not found; the walker was walking).
+
+    Longer stretches stay ``unknown`` (sitting down, bending, handling the camera).
+    """
+    out = activity.copy()
+    grid = np.asarray(seg.timeline_t_s, dtype=float)
+    if grid.size < 2:
+        return out
+    hop = float(grid[1] - grid[0])
+    still = np.asarray(seg.still, dtype=bool) if len(seg.still) == grid.size else np.zeros(grid.size, bool)
+    min_still = int(round(0.5 / hop))
+    for b in seg.bouts:
+        st = np.asarray(b.steps_s, dtype=float)
+        if st.size < 5:
+            continue
+        long = s.pause_factor * float(np.median(st[2:] - st[:-2]))
+        in_bout = (grid > b.start_s) & (grid < b.end_s)
+        for i0, i1 in _runs(still & in_bout):
+            if i1 - i0 < min_still:
+                continue
+            j = int(np.searchsorted(st, grid[i0])) - 1  # the last step before the still run
+            while j >= 2 and st[j] - st[j - 2] > long:
+                j -= 1
+            k = int(np.searchsorted(st, grid[i1 - 1]))  # the first step after it
+            while k <= st.size - 3 and st[k + 2] - st[k] > long:
+                k += 1
+            t0 = st[max(j, 0)]
+            t1 = st[min(k, st.size - 1)]
+            out[(grid > t0) & (grid < t1) & (out == "walking")] = "standing"
+    max_n = int(round(s.transition_s / hop))
+    for i0, i1 in _runs(out == "unknown"):
+        if i1 - i0 > max_n:
+            continue
+        before = out[i0 - 1] if i0 > 0 else "edge"
+        after = out[i1] if i1 < out.size else "edge"
+        sides = {before, after}
+        if sides == {"walking", "standing"}:
+            out[i0:i1] = "standing"
+        elif sides == {"walking", "edge"}:
+            out[i0:i1] = "walking"
     return out
 
 
