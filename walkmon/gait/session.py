@@ -72,6 +72,7 @@ class SessionSettings:
     min_piece_s: float = 3.0
     change_pitch_deg: float = 4.0
     change_roll_deg: float = 3.0
+    change_swing_ratio: float = 1.6
     smooth_s: float = 2.0
     still_tilt_deg: float = 20.0
     max_drift_deg: float = 8.0
@@ -220,11 +221,26 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist(), strict=True))
 
 
-def _pieces(bout: Any, turns: tuple, s: SessionSettings) -> list[tuple[float, float]]:
-    """The bout minus its turns (with margins), pieces of at least ``min_piece_s``."""
+def _pause_intervals(activity: NDArray, seg: Segmentation) -> list[tuple[float, float]]:
+    """Standing stretches inside bouts (the pauses :func:`_settle_timeline` found), as (start, end) times."""
+    grid = np.asarray(seg.timeline_t_s, dtype=float)
+    if grid.size < 2:
+        return []
+    hop = float(grid[1] - grid[0])
+    out = []
+    for i0, i1 in _runs(np.asarray(activity) == "standing"):
+        t0, t1 = float(grid[i0]) - 0.5 * hop, float(grid[i1 - 1]) + 0.5 * hop
+        if any(b.start_s < t0 and t1 < b.end_s for b in seg.bouts):
+            out.append((t0, t1))
+    return out
+
+
+def _pieces(bout: Any, turns: tuple, s: SessionSettings,
+            pauses: list[tuple[float, float]] | None = None) -> list[tuple[float, float]]:
+    """The bout minus its turns (with margins) and its pauses, pieces of at least ``min_piece_s``."""
     pieces = [(bout.start_s, bout.end_s)]
-    for u in turns:
-        a, b = u.start_s - s.turn_margin_s, u.end_s + s.turn_margin_s
+    cuts = [(u.start_s - s.turn_margin_s, u.end_s + s.turn_margin_s) for u in turns] + list(pauses or [])
+    for a, b in cuts:
         nxt = []
         for p0, p1 in pieces:
             if b <= p0 or a >= p1:
@@ -238,16 +254,32 @@ def _pieces(bout: Any, turns: tuple, s: SessionSettings) -> list[tuple[float, fl
     return [(p0, p1) for p0, p1 in pieces if p1 - p0 >= s.min_piece_s]
 
 
+def _moving_mean(x: NDArray, w: int) -> NDArray:
+    kern = np.ones(w) / w
+    return np.convolve(np.pad(x, (w // 2, w - 1 - w // 2), mode="edge"), kern, "valid")
+
+
+def posture_features(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> NDArray:
+    """Per sample: the slow (``smooth_s`` mean) pitch and roll, and the log of the gait's sway (RMS of pitch and
+    roll about their slow part over ``smooth_s``): the inclination of a posture and how much the trunk sways in
+    it (a dragged foot sways the trunk 2-3x as much as a normal walk, at the same inclination)."""
+    fs = (t.size - 1) / max(t[-1] - t[0], 1e-9)
+    w = max(1, int(round(s.smooth_s * fs)))
+    slow = np.column_stack([_moving_mean(a[:, k], w) for k in (0, 2)])
+    osc = a[:, [0, 2]] - slow
+    sway = np.sqrt(_moving_mean(np.sum(osc * osc, axis=1), w))
+    return np.column_stack([slow, np.log(np.maximum(sway, 0.05))])
+
+
 def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> list[float]:
-    """Split times of a piece (binary segmentation of the slow pitch/roll)."""
+    """Split times of a piece: binary segmentation of :func:`posture_features` (a split where the two sides'
+    medians differ by ``change_pitch_deg`` in pitch, ``change_roll_deg`` in roll or a factor
+    ``change_swing_ratio`` in sway)."""
     if t.size < 4:
         return []
     fs = (t.size - 1) / max(t[-1] - t[0], 1e-9)
-    w = max(1, int(round(s.smooth_s * fs)))
-    kern = np.ones(w) / w
-    slow = np.column_stack([np.convolve(np.pad(a[:, k], (w // 2, w - 1 - w // 2), mode="edge"), kern, "valid")
-                            for k in (0, 2)])
-    limits = np.array([s.change_pitch_deg, s.change_roll_deg])
+    slow = posture_features(t, a, s)
+    limits = np.array([s.change_pitch_deg, s.change_roll_deg, math.log(s.change_swing_ratio)])
     out: list[float] = []
 
     def split(i0: int, i1: int) -> None:
@@ -389,7 +421,12 @@ def analyze_session(
         ref, ref_source, stand = _upright(t, a, seg, absd, s)
     a, ref_out, ref_source = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s)
     ref_zero = np.zeros(3)
-    seg_docs, bout_docs, weighted, label_time = _bouts(t, a, seg, sig, ref_zero, settings, base, s, no_yaw=no_yaw)
+    activity = _not_upright_is_unknown(np.asarray(seg.activity, dtype=object), seg.timeline_t_s, t, a, s)
+    activity = _settle_timeline(activity, seg, s)
+    pauses = _pause_intervals(activity, seg)
+    seg = replace(seg, activity=tuple(str(v) for v in activity))
+    seg_docs, bout_docs, weighted, label_time = _bouts(t, a, seg, sig, ref_zero, settings, base, s, no_yaw=no_yaw,
+                                                       pauses=pauses)
     walking_s = seg.walking_s
     cad = [(b.duration_s, b.cadence_spm) for b in seg.bouts if math.isfinite(b.cadence_spm)]
     cadence = (sum(w * c for w, c in cad) / sum(w for w, _ in cad)) if cad and sum(w for w, _ in cad) > 0 \
@@ -397,9 +434,6 @@ def analyze_session(
     axes = _weighted_axes(weighted)
     dominant, share, cls = _dominant(label_time, seg_docs, seg)
     asym = _weighted_asym(weighted)
-    activity = _not_upright_is_unknown(np.asarray(seg.activity, dtype=object), seg.timeline_t_s, t, a, s)
-    activity = _settle_timeline(activity, seg, s)
-    seg = replace(seg, activity=tuple(str(v) for v in activity))
     activity_s = {k: float(np.sum(activity == k)) * activity_settings.hop_s
                   for k in ("standing", "walking", "turning", "unknown")}
     rows = timeline_rows(t, a, seg, seg_docs, ref_zero)
@@ -466,23 +500,43 @@ def _heading_free(
 def _bouts(
     t: NDArray, a: NDArray, seg: Segmentation, sig: TrunkSignals, ref_zero: NDArray, settings: IndicatorSettings,
     base: Mapping[str, Any] | None, s: SessionSettings, *, no_yaw: bool,
+    pauses: list[tuple[float, float]] | None = None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[tuple[float, Indicators]], dict[str, float]]:
-    """Each walking bout cut into straight pieces (between turns) and posture segments (at change points):
-    the segments' documents, the bouts' documents, the (duration, indicators) of every segment and the time
-    per posture label."""
+    """Each walking bout cut into straight pieces (between turns and pauses) and posture segments (at change
+    points): the segments' documents, the bouts' documents, the (duration, indicators) of every segment and the
+    time per posture label. Straight stretches of one bout that a turn or a pause separates, with no change of
+    posture between them (:func:`_same_posture`), are one posture: they are labelled together, on their pooled
+    evidence (a walk of 4-6 s between two turns has too few steps to label on its own)."""
     seg_docs: list[dict[str, Any]] = []
     bout_docs: list[dict[str, Any]] = []
     weighted: list[tuple[float, Indicators]] = []
     label_time: dict[str, float] = {}
     for b in seg.bouts:
-        inside = []
-        for p0, p1 in _pieces(b, seg.turns, s):
+        spans: list[tuple[float, float, bool]] = []  # (start, end, starts at a change point)
+        for p0, p1 in _pieces(b, seg.turns, s, pauses):
             m = (t >= p0) & (t <= p1)
             cuts = change_points(t[m], a[m], s)
             edges = [p0, *cuts, p1]
-            for q0, q1 in zip(edges[:-1], edges[1:], strict=True):
-                ind, doc = span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base,
-                                           steady_steps=seg.steady_steps_s)
+            spans += [(q0, q1, i > 0) for i, (q0, q1) in enumerate(zip(edges[:-1], edges[1:], strict=True))]
+        items = [span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base,
+                                 steady_steps=seg.steady_steps_s) for q0, q1, _ in spans]
+        groups: list[list[int]] = []
+        for i, (_, _, at_cut) in enumerate(spans):
+            if groups and not at_cut and _same_posture(items[groups[-1][-1]][0], items[i][0], s):
+                groups[-1].append(i)
+            else:
+                groups.append([i])
+        inside = []
+        for g in groups:
+            if len(g) > 1:
+                cls = _pooled_classification([spans[i][:2] for i in g], [items[i][0] for i in g],
+                                             np.asarray(b.steps_s, dtype=float), seg.steady_steps_s, sig.kind, base)
+                for i in g:
+                    ind, doc = items[i]
+                    items[i] = (ind.with_classification(cls), {**doc, "label": cls.label, "reasons": list(cls.reasons)})
+            for i in g:
+                q0, q1, _ = spans[i]
+                ind, doc = items[i]
                 if no_yaw:
                     doc["axes"]["yaw"] = None
                 seg_docs.append(doc)
@@ -491,6 +545,108 @@ def _bouts(
         weighted += inside
         bout_docs.append(_bout_doc(b, inside, seg, s, no_yaw=no_yaw))
     return seg_docs, bout_docs, weighted, label_time
+
+
+def _axis_value(ind: Indicators, axis: str, name: str) -> float:
+    v = getattr(ind.axes[axis], name)
+    return float(v) if v is not None and math.isfinite(v) else float("nan")
+
+
+def _same_posture(x: Indicators, y: Indicators, s: SessionSettings) -> bool:
+    """Two straight stretches of a bout in the same posture: inclinations within the change-point limits and
+    the pitch + roll swings within a factor ``change_swing_ratio``."""
+    if x.status is not IndicatorStatus.OK or y.status is not IndicatorStatus.OK:
+        return False
+    dp = abs(_axis_value(x, "pitch", "inclination_mean") - _axis_value(y, "pitch", "inclination_mean"))
+    dr = abs(_axis_value(x, "roll", "inclination_mean") - _axis_value(y, "roll", "inclination_mean"))
+    sx = _axis_value(x, "pitch", "swing_mean") + _axis_value(x, "roll", "swing_mean")
+    sy = _axis_value(y, "pitch", "swing_mean") + _axis_value(y, "roll", "swing_mean")
+    if not all(math.isfinite(v) for v in (dp, dr, sx, sy)) or min(sx, sy) <= 0:
+        return False
+    return dp < s.change_pitch_deg and dr < s.change_roll_deg and max(sx, sy) / min(sx, sy) < s.change_swing_ratio
+
+
+def _pooled_alternation(spans: list[tuple[float, float]], bout_steps: NDArray, steady: NDArray) -> dict[str, float]:
+    """Alternating step time asymmetry over several straight stretches of one bout, as
+    :func:`walkmon.gait.posture.alternation` fits one stretch: ``v[k] = c_j + s_j k + d (-1)^k`` with a level and a
+    trend per stretch and one shared side difference ``d``. Each step interval's side is the parity of its first
+    step's index in the bout (steps continue through a turn, so the feet are known across it; if a stop in a pause
+    changed the leading foot, that stretch counts against ``d``: the pooled evidence can only shrink, never grow
+    from the choice of sides). Returns ``ratio``, ``ratio_ci_low`` and ``n_pairs`` like ``alternation``."""
+    from scipy.stats import t as student_t
+
+    out = {"ratio": float("nan"), "ratio_ci_low": float("nan"), "n_pairs": 0.0}
+    rows: list[tuple[int, float, float, float]] = []  # (stretch, k, side, interval)
+    for j, (q0, q1) in enumerate(spans):
+        st = steady[(steady >= q0) & (steady <= q1)]
+        idx = np.searchsorted(bout_steps, st - 1e-6)
+        for i in range(st.size - 1):
+            if idx[i + 1] == idx[i] + 1:  # consecutive steps of the bout (none left out between them)
+                rows.append((j, float(idx[i]), 1.0 if idx[i] % 2 == 0 else -1.0, float(st[i + 1] - st[i])))
+    if not rows:
+        return out
+    r = np.array(rows)
+    groups = sorted({int(g) for g in r[:, 0]})
+    n = r.shape[0]
+    out["n_pairs"] = float(n // 2)
+    cols = []
+    for g in groups:
+        m = r[:, 0] == g
+        cols.append(m.astype(float))
+        k = np.where(m, r[:, 1] - r[m, 1].mean(), 0.0)
+        if m.sum() >= 3:
+            cols.append(k)
+    x = np.column_stack([*cols, r[:, 2]])
+    dof = n - x.shape[1]
+    if n // 2 < 3 or dof < 1:
+        return out
+    coef, *_ = np.linalg.lstsq(x, r[:, 3], rcond=None)
+    d = abs(float(coef[-1]))
+    c = float(np.mean(r[:, 3]))
+    if not c - d > 0:
+        return out
+    resid = r[:, 3] - x @ coef
+    cov = np.linalg.pinv(x.T @ x) * float(resid @ resid) / dof
+    se = math.sqrt(max(float(cov[-1, -1]), 0.0))
+    low = max(d - float(student_t.ppf(0.975, dof)) * se, 0.0)
+    out["ratio"] = (c + d) / (c - d)
+    out["ratio_ci_low"] = (c + low) / (c - low)
+    return out
+
+
+def _pooled_classification(
+    spans: list[tuple[float, float]], inds: list[Indicators], bout_steps: NDArray, steady: NDArray, kind: str,
+    base: Mapping[str, Any] | None,
+) -> Classification:
+    """One label for the straight stretches of one posture: the classifier on their duration-weighted
+    indicators, with the alternating-step evidence pooled (:func:`_pooled_alternation`, the step counts added)."""
+    from walkmon.gait.posture import classify
+
+    if kind == "acc":
+        return inds[0].classification  # accelerometer only: never a posture label (span_indicators says why)
+    w = [q1 - q0 for q0, q1 in spans]
+    axes = _weighted_axes(list(zip(w, inds, strict=True)))
+    n_steps = 0.0
+    for ind in inds:
+        n = ind.asymmetry.get("n_steps")
+        n_steps += float(n) if n is not None and math.isfinite(n) else float(ind.axes["pitch"].n_cycles)
+    alt = _pooled_alternation(spans, bout_steps, np.asarray(steady, dtype=float))
+    swing = [(x, ind.asymmetry.get("step_swing_ratio")) for x, ind in zip(w, inds, strict=True)]
+    swing = [(x, float(v)) for x, v in swing if v is not None and math.isfinite(v)]
+    cad = [(q1 - q0, ind.cadence_spm) for (q0, q1), ind in zip(spans, inds, strict=True)
+           if math.isfinite(ind.cadence_spm)]
+    doc = {
+        "status": "ok",
+        "cadence_spm": sum(k * v for k, v in cad) / sum(k for k, _ in cad) if cad else None,
+        "axes": {ax: axes[ax].to_dict() for ax in AXES},
+        "asymmetry": {"step_time_ratio": alt["ratio"], "step_time_ratio_ci_low": alt["ratio_ci_low"],
+                      "step_time_n_pairs": alt["n_pairs"], "n_steps": n_steps,
+                      "step_swing_ratio": sum(k * v for k, v in swing) / sum(k for k, _ in swing) if swing else None},
+    }
+    cls = classify(doc, base)
+    where = ", ".join(f"{q0:.1f}-{q1:.1f} s" for q0, q1 in spans)
+    return Classification(cls.label, (*cls.reasons, f"one posture over {len(spans)} straight stretches of the bout "
+                                      f"({where}; the turns and pauses between them left out), labelled together"))
 
 
 def _bout_doc(
