@@ -286,13 +286,18 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
         n_min = int(s.min_segment_s * fs)
         if i1 - i0 < 2 * n_min:
             return
-        best, best_k = 0.0, -1
-        for k in range(i0 + n_min, i1 - n_min, max(1, int(0.1 * fs))):
-            d = np.abs(np.median(slow[i0:k], axis=0) - np.median(slow[k:i1], axis=0)) / limits
-            score = float(d.max())
-            if score > best:
-                best, best_k = score, k
-        if best >= 1.0:
+        # where: the CUSUM statistic of the means (largest at the middle of a step or a ramp, where medians are
+        # flat across the whole ramp); whether: the medians either side differ by the limits
+        x = slow[i0:i1] / limits
+        csum = np.cumsum(x - x.mean(axis=0), axis=0)
+        n = i1 - i0
+        ks = np.arange(n_min, n - n_min, max(1, int(0.1 * fs)))
+        if ks.size == 0:
+            return
+        cusum = np.abs(csum[ks - 1]) / np.sqrt((ks * (n - ks) / n))[:, None]
+        best_k = i0 + int(ks[int(np.argmax(cusum.max(axis=1)))])
+        d = np.abs(np.median(slow[i0:best_k], axis=0) - np.median(slow[best_k:i1], axis=0)) / limits
+        if float(d.max()) >= 1.0:
             out.append(float(t[best_k]))
             split(i0, best_k)
             split(best_k, i1)
