@@ -2,7 +2,8 @@
 
 For each walk type x seed, ``walkmon.simulate.unkind.unkind_script`` draws a session (random standing or mid-walk
 start and end, 2-4 bouts, pauses of 1-6 s, 90/180 degree turns sweeping facades at 1-3 m, gait initiation and
-termination, one posture change mid-walk; 30-80 s). The simulation is cached under a key of the simulator
+termination, one posture change mid-walk, in most sessions once sitting down, bending down to pick something up or
+handling the camera (the truth's ``unknown``); 30-100 s). The simulation is cached under a key of the simulator
 version and every parameter. ``walkmon analyze`` runs on its IMU (``--imu imu.csv``, IMU only) and on its video
 (320x240, 30 fps: rendering at 640x480 would take ~4x longer; the rotation estimate is not what is scored here),
 and the result is scored against the true timeline (truth_timeline.csv, truth_steps.csv) with
@@ -316,7 +317,8 @@ def main() -> int:
         (f"Estimate scored: {', '.join(estimates)} (see the adapter in benchmarks/bench_unkind.py). "
          f"{len(args.walks)} walk types x seeds {args.first_seed}-{args.first_seed + args.seeds - 1}, "
          "sessions from `walkmon simulate --unkind` (random standing or mid-walk start/end, pauses, 90/180 deg "
-         "turns at facades 1-3 m away, gait initiation/termination, one posture change mid-walk)."),
+         "turns at facades 1-3 m away, gait initiation/termination, one posture change mid-walk, and in most sessions "
+         "one sitting, picking up or camera handling: `unknown`)."),
         "",
         (f"Targets (issue 11): activity per second >= {TARGETS['activity_pct']:g} %, posture change points within "
          f"{TARGETS['boundary_s']:g} s, segment labels (true segments >= {MIN_SEGMENT_S:g} s) >= "

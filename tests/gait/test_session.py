@@ -112,7 +112,7 @@ def test_a_dragged_foot_and_back_is_a_posture_change_with_its_labels(tmp_path) -
                                     "stand:2", seed=3)
     normal = [p for p in model.pieces if p.activity == "walking"][1]
     segs = doc["segments"]
-    cuts = [b["start_s"] for a, b in zip(segs, segs[1:]) if a["label"] != b["label"] and
+    cuts = [b["start_s"] for a, b in zip(segs, segs[1:], strict=False) if a["label"] != b["label"] and
             b["start_s"] - a["end_s"] < 2.0]
     assert any(abs(c - normal.start_s) < 1.5 for c in cuts)  # the sway halves at the same inclination
     for p in (q for q in model.pieces if q.activity == "walking"):

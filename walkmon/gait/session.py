@@ -294,7 +294,7 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
         ks = np.arange(n_min, n - n_min, max(1, int(0.1 * fs)))
         if ks.size == 0:
             return
-        cusum = np.abs(csum[ks - 1]) / np.sqrt((ks * (n - ks) / n))[:, None]
+        cusum = np.abs(csum[ks - 1]) / np.sqrt(ks * (n - ks) / n)[:, None]
         best_k = i0 + int(ks[int(np.argmax(cusum.max(axis=1)))])
         d = np.abs(np.median(slow[i0:best_k], axis=0) - np.median(slow[best_k:i1], axis=0)) / limits
         if float(d.max()) >= 1.0:
