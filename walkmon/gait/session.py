@@ -719,7 +719,8 @@ def _settle_timeline(activity: NDArray, seg: Segmentation, s: SessionSettings) -
       the bouts' time), the timeline says what the person did;
     * **gait initiation and termination**: movement without a gait rhythm for at most ``transition_s`` between
       standing and a bout (the weight shift before the first contact, the closing step after the last) is
-      ``standing``: the field counts it outside the bout, and the person stands on both feet;
+      ``standing``: the field counts it outside the bout, and the person stands on both feet; so is the tail
+      of a turn on the spot (below the turn detector's 5 deg/s edge) before standing still;
     * a recording that **starts or ends mid-walk**: at most ``transition_s`` without detected steps between the
       recording's edge and a bout is ``walking`` (the step detector needs half a window of context, so the
       contacts nearest the edges are not found; the walker was walking).
@@ -758,7 +759,7 @@ def _settle_timeline(activity: NDArray, seg: Segmentation, s: SessionSettings) -
         before = out[i0 - 1] if i0 > 0 else "edge"
         after = out[i1] if i1 < out.size else "edge"
         sides = {before, after}
-        if sides == {"walking", "standing"}:
+        if sides in ({"walking", "standing"}, {"turning", "standing"}):
             out[i0:i1] = "standing"
         elif sides == {"walking", "edge"}:
             out[i0:i1] = "walking"
