@@ -571,48 +571,70 @@ def _same_posture(x: Indicators, y: Indicators, s: SessionSettings) -> bool:
     return dp < s.change_pitch_deg and dr < s.change_roll_deg and max(sx, sy) / min(sx, sy) < s.change_swing_ratio
 
 
+def _fit_alternation(r: NDArray) -> tuple[float, float, int] | None:
+    """Least-squares fit of rows (stretch, k, side, interval) as ``v = c_j + s_j k + d side``: (d, its standard
+    error, degrees of freedom), or None when underdetermined."""
+    cols = []
+    for g in sorted({int(v) for v in r[:, 0]}):
+        m = r[:, 0] == g
+        cols.append(m.astype(float))
+        if m.sum() >= 3:
+            cols.append(np.where(m, r[:, 1] - r[m, 1].mean(), 0.0))
+    x = np.column_stack([*cols, r[:, 2]])
+    dof = r.shape[0] - x.shape[1]
+    if dof < 1:
+        return None
+    coef, *_ = np.linalg.lstsq(x, r[:, 3], rcond=None)
+    resid = r[:, 3] - x @ coef
+    cov = np.linalg.pinv(x.T @ x) * float(resid @ resid) / dof
+    return float(coef[-1]), math.sqrt(max(float(cov[-1, -1]), 0.0)), dof
+
+
 def _pooled_alternation(spans: list[tuple[float, float]], bout_steps: NDArray, steady: NDArray) -> dict[str, float]:
     """Alternating step time asymmetry over several straight stretches of one bout, as
     :func:`walkmon.gait.posture.alternation` fits one stretch: ``v[k] = c_j + s_j k + d (-1)^k`` with a level and a
     trend per stretch and one shared side difference ``d``. Each step interval's side is the parity of its first
-    step's index in the bout (steps continue through a turn, so the feet are known across it; if a stop in a pause
-    changed the leading foot, that stretch counts against ``d``: the pooled evidence can only shrink, never grow
-    from the choice of sides). Returns ``ratio``, ``ratio_ci_low`` and ``n_pairs`` like ``alternation``."""
+    step's index in the bout: steps continue through a turn, so the feet are known across it. After a pause the
+    walker may lead with either foot: stretches after a pause take the side that their own fit gives relative to
+    the stretches before it (this choice can only favour a difference, so the classifier's ratio threshold, not
+    the interval alone, guards symmetric walks). Returns ``ratio``, ``ratio_ci_low`` and ``n_pairs`` like
+    ``alternation``."""
     from scipy.stats import t as student_t
 
     out = {"ratio": float("nan"), "ratio_ci_low": float("nan"), "n_pairs": 0.0}
-    rows: list[tuple[int, float, float, float]] = []  # (stretch, k, side, interval)
+    d_all = np.diff(bout_steps)
+    long = 1.6 * float(np.median(d_all)) if d_all.size else float("inf")
+    rows: list[tuple[int, float, float, float, int]] = []  # (stretch, k, side, interval, parity group)
+    group = 0
     for j, (q0, q1) in enumerate(spans):
+        if j > 0:
+            between = bout_steps[(bout_steps >= spans[j - 1][1] - 1e-6) & (bout_steps <= q0 + 1e-6)]
+            if between.size < 2 or np.any(np.diff(between) > long):
+                group += 1  # a pause (or no step seen) between the stretches: the leading foot is unknown
         st = steady[(steady >= q0) & (steady <= q1)]
         idx = np.searchsorted(bout_steps, st - 1e-6)
         for i in range(st.size - 1):
             if idx[i + 1] == idx[i] + 1:  # consecutive steps of the bout (none left out between them)
-                rows.append((j, float(idx[i]), 1.0 if idx[i] % 2 == 0 else -1.0, float(st[i + 1] - st[i])))
-    if not rows:
+                rows.append((j, float(idx[i]), 1.0 if idx[i] % 2 == 0 else -1.0, float(st[i + 1] - st[i]), group))
+    if len(rows) < 6:
+        out["n_pairs"] = float(len(rows) // 2)
         return out
     r = np.array(rows)
-    groups = sorted({int(g) for g in r[:, 0]})
-    n = r.shape[0]
-    out["n_pairs"] = float(n // 2)
-    cols = []
-    for g in groups:
-        m = r[:, 0] == g
-        cols.append(m.astype(float))
-        k = np.where(m, r[:, 1] - r[m, 1].mean(), 0.0)
-        if m.sum() >= 3:
-            cols.append(k)
-    x = np.column_stack([*cols, r[:, 2]])
-    dof = n - x.shape[1]
-    if n // 2 < 3 or dof < 1:
+    groups = sorted({int(g) for g in r[:, 4]}, key=lambda g: -int(np.sum(r[:, 4] == g)))
+    ref = _fit_alternation(r[r[:, 4] == groups[0], :4])
+    for g in groups[1:]:
+        m = r[:, 4] == g
+        own = _fit_alternation(r[m, :4])
+        if ref is not None and own is not None and own[0] * ref[0] < 0:
+            r[m, 2] *= -1.0
+    out["n_pairs"] = float(r.shape[0] // 2)
+    fit = _fit_alternation(r[:, :4])
+    if fit is None or r.shape[0] // 2 < 3:
         return out
-    coef, *_ = np.linalg.lstsq(x, r[:, 3], rcond=None)
-    d = abs(float(coef[-1]))
+    d, se, dof = abs(fit[0]), fit[1], fit[2]
     c = float(np.mean(r[:, 3]))
     if not c - d > 0:
         return out
-    resid = r[:, 3] - x @ coef
-    cov = np.linalg.pinv(x.T @ x) * float(resid @ resid) / dof
-    se = math.sqrt(max(float(cov[-1, -1]), 0.0))
     low = max(d - float(student_t.ppf(0.975, dof)) * se, 0.0)
     out["ratio"] = (c + d) / (c - d)
     out["ratio_ci_low"] = (c + low) / (c - low)
