@@ -658,8 +658,11 @@ def _pooled_classification(
         n = ind.asymmetry.get("n_steps")
         n_steps += float(n) if n is not None and math.isfinite(n) else float(ind.axes["pitch"].n_cycles)
     alt = _pooled_alternation(spans, bout_steps, np.asarray(steady, dtype=float))
-    swing = [(x, ind.asymmetry.get("step_swing_ratio")) for x, ind in zip(w, inds, strict=True)]
-    swing = [(x, float(v)) for x, v in swing if v is not None and math.isfinite(v)]
+    swing: list[tuple[float, float]] = []
+    for x, ind in zip(w, inds, strict=True):
+        v = ind.asymmetry.get("step_swing_ratio")
+        if v is not None and math.isfinite(v):
+            swing.append((x, float(v)))
     cad = [(q1 - q0, ind.cadence_spm) for (q0, q1), ind in zip(spans, inds, strict=True)
            if math.isfinite(ind.cadence_spm)]
     doc = {
