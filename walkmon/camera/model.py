@@ -8,6 +8,14 @@ The file format is the one ROS ``camera_calibration`` writes::
     camera_matrix: {rows: 3, cols: 3, data: [fx, 0, cx, 0, fy, cy, 0, 0, 1]}
     distortion_model: plumb_bob          # or equidistant (fisheye: k1..k4)
     distortion_coefficients: {rows: 1, cols: 5, data: [k1, k2, p1, p2, k3]}
+    readout_s: 0.03                      # optional, walkmon's own: rolling-shutter readout (see below)
+
+``readout_s`` (not a ROS key; ROS readers ignore it) is the rolling-shutter readout time: the time from the first
+(top) row's exposure to the last's. Most phone, action and USB cameras read their rows out one after another over
+5-30 ms at video frame rates; a global-shutter camera (and the default, 0) exposes every row at once. The fast
+rotation method uses it to put every tracked point at the frame's time (the middle row's) before fitting
+(:mod:`walkmon.rotation.shutter`). A camera's readout time comes from its lens profile (Gyroflow's
+``frame_readout_time``), its datasheet (sensor line time x rows), or a measurement (a strobing LED's bands).
 
 Extra keys ROS writes (``rectification_matrix``, ``projection_matrix``) are accepted and ignored on read, and
 written on write so ROS tools can read walkmon's files.
@@ -41,6 +49,8 @@ DEFAULT_HFOV_DEG = 70.0
 MAX_IMAGE_SIDE_PX = 20000
 #: Largest |distortion coefficient| accepted (OpenCV's rational model reaches tens; 1e30 is a corrupted file).
 MAX_DISTORTION_COEFFICIENT = 1000.0
+#: Largest rolling-shutter readout accepted, s (a slow sensor at 10 fps; beyond it the file is wrong).
+MAX_READOUT_S = 0.1
 
 #: Supported distortion models and how many coefficients each takes.
 DISTORTION_MODELS = {"plumb_bob": (4, 5, 8, 12, 14), "equidistant": (4,)}
@@ -52,6 +62,7 @@ class CameraModel:
 
     ``camera_matrix`` is ``[[fx, 0, cx], [0, fy, cy], [0, 0, 1]]``. ``distortion_model`` is ``plumb_bob``
     (OpenCV's radial-tangential ``k1 k2 p1 p2 [k3 ...]``) or ``equidistant`` (OpenCV fisheye ``k1..k4``).
+    ``readout_s``: rolling-shutter readout time, top row to bottom row (0: global shutter; module docstring).
     """
 
     width_px: int
@@ -60,8 +71,15 @@ class CameraModel:
     distortion_model: str = "plumb_bob"
     distortion_coefficients: NDArray[np.float64] = field(default_factory=lambda: np.zeros(5))
     name: str = "camera"
+    readout_s: float = 0.0
 
     def __post_init__(self) -> None:
+        numeric = isinstance(self.readout_s, int | float | np.integer | np.floating) and not isinstance(self.readout_s, bool)
+        readout = float(self.readout_s) if numeric else math.nan
+        if not 0.0 <= readout <= MAX_READOUT_S:
+            msg = f"readout_s (rolling-shutter readout) must be in [0, {MAX_READOUT_S:g}] s, got {self.readout_s!r}"
+            raise ConfigError(msg)
+        object.__setattr__(self, "readout_s", readout)
         K = np.array(self.camera_matrix, dtype=float)
         d = np.array(self.distortion_coefficients, dtype=float).ravel()
         if K.shape != (3, 3):
@@ -138,7 +156,8 @@ class CameraModel:
         K = self.camera_matrix.copy()
         K[0, :] *= sx
         K[1, :] *= sy
-        return CameraModel(width_px, height_px, K, self.distortion_model, self.distortion_coefficients, self.name)
+        return CameraModel(width_px, height_px, K, self.distortion_model, self.distortion_coefficients, self.name,
+                           self.readout_s)
 
     def normalized_from_pixels(self, points_px: ArrayLike) -> NDArray[np.float64]:
         """Undistorted normalised image coordinates (x/z, y/z) of pixel positions; shape (N, 2)."""
@@ -171,7 +190,7 @@ class CameraModel:
         """The ROS camera_info YAML mapping."""
         d = [float(v) for v in self.distortion_coefficients]
         P = np.hstack([self.camera_matrix, np.zeros((3, 1))])
-        return {
+        out: dict[str, Any] = {
             "image_width": int(self.width_px),
             "image_height": int(self.height_px),
             "camera_name": self.name,
@@ -181,6 +200,9 @@ class CameraModel:
             "rectification_matrix": {"rows": 3, "cols": 3, "data": [float(v) for v in np.eye(3).ravel()]},
             "projection_matrix": {"rows": 3, "cols": 4, "data": [float(v) for v in P.ravel()]},
         }
+        if self.readout_s > 0:  # a global-shutter camera's file stays a plain camera_info
+            out["readout_s"] = float(self.readout_s)
+        return out
 
     @classmethod
     def from_dict(cls, data: Any, *, source: str = "calibration") -> CameraModel:
@@ -195,6 +217,7 @@ class CameraModel:
             dist_entry = data.get("distortion_coefficients", {"data": [0.0] * 5})
             dist = np.asarray(_data_list(dist_entry, "distortion_coefficients"), dtype=float)
             name = str(data.get("camera_name", "camera"))
+            readout = data.get("readout_s", 0.0)
         except KeyError as exc:
             msg = f"{source}: missing key {exc.args[0]!r}"
             raise ConfigError(msg) from None
@@ -202,7 +225,7 @@ class CameraModel:
             msg = f"{source}: {exc}"
             raise ConfigError(msg) from None
         try:
-            return cls(width, height, K, model, dist, name)
+            return cls(width, height, K, model, dist, name, readout)
         except ConfigError as exc:
             msg = f"{source}: {exc}"
             raise ConfigError(msg) from None

@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from walkmon.camera.model import CameraModel
 from walkmon.rotation import geometry as geo
+from walkmon.rotation import shutter
 from walkmon.rotation.types import (
     EstimateStatus,
     RotationEstimate,
@@ -62,6 +63,11 @@ _STEP_JUMP_DEG = 1.0
 _PREDICT_MIN_STEP_DEG = 1.0
 #: A frame-to-frame rotation differing from the previous one by more than this (deg) is held as implausible.
 _MAX_STEP_CHANGE_DEG = 4.0
+#: A rolling-shutter camera's tracks are moved to the frame's time when the image's skew from the top row to the
+#: bottom one (rate x readout x focal) exceeds this (px): a fifth of the tracking noise (feature_noise_px).
+_SHUTTER_MIN_SKEW_PX = 0.1
+#: At most this many refits of a frame with the rate its own fit measured (FastEngine._shutter_refit).
+_SHUTTER_ITERATIONS = 2
 #: ``min_feature_distance_px`` is given for a view this wide and scaled with the frame width.
 _REFERENCE_WIDTH_PX = 640.0
 
@@ -107,6 +113,11 @@ class FastEngine:
         self._travel: NDArray[np.float64] | None = None
         self._t_prev: float | None = None
         self._last_step: NDArray[np.float64] | None = None  # the last accepted frame-to-frame rotation
+        # rolling shutter (camera.readout_s > 0): the angular rate of the last accepted step (rad/s, camera axes)
+        # and the rate this frame's tracks are moved to the frame's time with (None: not moved); see shutter.py
+        self._readout_s = camera.readout_s
+        self._rate: NDArray[np.float64] | None = None
+        self._frame_rate: NDArray[np.float64] | None = None
         self.started = False
 
     # ----------------------------------------------------------------------------------------------------------
@@ -120,7 +131,11 @@ class FastEngine:
             xy = np.empty_like(px)
             xy[:, 0] = (px[:, 0] - self.camera.cx) / self.camera.fx
             xy[:, 1] = (px[:, 1] - self.camera.cy) / self.camera.fy
-        return geo.homogeneous_from_normalized(xy)
+        q = geo.homogeneous_from_normalized(xy)
+        if self._frame_rate is not None:  # a rolling shutter in a turn: each row seen at its own time
+            dt = shutter.row_offsets_s(px[:, 1], self.camera.height_px, self._readout_s)
+            q = shutter.to_frame_time(q, dt, self._frame_rate)
+        return q
 
     def _detect(self, small: NDArray[np.uint8], existing: NDArray[np.float32]) -> NDArray[np.float32]:
         want = self.s.max_features - existing.shape[0]
@@ -330,12 +345,15 @@ class FastEngine:
             return held
         if self._prev_small is None:
             return self._start(small, t_s)
+        self._frame_rate = self._shutter_rate()
         n = self._track(small)
         if n < self.s.min_inliers:
             # Lost track (cap removed onto a new view, sudden blur): restart from here, holding orientation.
             self._restart(small)
             return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, "tracking_lost", n)
         fit = self._fit(t_s, n)
+        if self._readout_s > 0:
+            fit = self._shutter_refit(fit, t_s, n)
         n_inliers = int(np.count_nonzero(fit.inliers))
         orientation = self._R_kf @ fit.rotation
         step = self._orientation.T @ orientation
@@ -431,10 +449,41 @@ class FastEngine:
         if np.any(q[:, 2] <= 1e-6):
             return None
         px = self.camera.pixels_from_camera_points(q)
+        if self._frame_rate is not None:  # where the rolling shutter shows them: each on its row's time
+            dt = shutter.row_offsets_s(px[:, 1], self.camera.height_px, self._readout_s)
+            px = self.camera.pixels_from_camera_points(shutter.from_frame_time(q / q[:, 2:3], dt, self._frame_rate))
         guess = np.empty((px.shape[0], 1, 2), np.float32)
         guess[:, 0, 0] = (px[:, 0] + 0.5) / self._sx - 0.5
         guess[:, 0, 1] = (px[:, 1] + 0.5) / self._sy - 0.5
         return guess
+
+    def _shutter_rate(self) -> NDArray[np.float64] | None:
+        """The angular rate to move this frame's tracks to its time with: the last accepted step's (the turn goes
+        on as it went), or None for a global shutter or while the skew stays below _SHUTTER_MIN_SKEW_PX (the
+        common path: no change)."""
+        if self._readout_s <= 0 or self._rate is None:
+            return None
+        if shutter.skew_px(self._rate, self._readout_s, self._focal) < _SHUTTER_MIN_SKEW_PX:
+            return None
+        return self._rate
+
+    def _shutter_refit(self, fit: _Fit, t_s: float, n: int) -> _Fit:
+        """A rolling-shutter camera's fit again, its tracks moved to the frame's time with the rate the fit itself
+        measured (previous frame -> this one), while that rate differs from the one used by more than
+        _SHUTTER_MIN_SKEW_PX of skew (at most _SHUTTER_ITERATIONS times). The last frame's rate alone lagged the
+        start and the end of a turn by a frame and fed its error back: a frame misread by 50 deg/s skewed the
+        next one's tracks by 1.2 px and the estimate rang for several frames (rolling_shutter seed 5)."""
+        dt = t_s - self._t_prev if self._t_prev is not None else 0.0
+        if dt <= 0:
+            return fit
+        used = self._frame_rate if self._frame_rate is not None else np.zeros(3)
+        for _ in range(_SHUTTER_ITERATIONS):
+            rate = shutter.rate_from_step(self._orientation.T @ self._R_kf @ fit.rotation, dt)
+            if shutter.skew_px(rate - used, self._readout_s, self._focal) < _SHUTTER_MIN_SKEW_PX:
+                break
+            self._frame_rate = used = rate
+            fit = self._fit(t_s, n)
+        return fit
 
     def _fit(self, t_s: float, n: int) -> _Fit:
         """The rotation relative to the keyframe: rotation-only, or essential when GRIC prefers it and it agrees."""
@@ -510,6 +559,8 @@ class FastEngine:
         """Take the frame's orientation, keep the inlier tracks, start a new keyframe when due (returned)."""
         s = self.s
         self._last_step = self._orientation.T @ orientation
+        if self._readout_s > 0:
+            self._rate = shutter.rate_from_step(self._last_step, t_s - self._t_prev if self._t_prev is not None else 0.0)
         self._orientation = orientation
         self._R_rel = fit.rotation
         self._q_prev = self._q_cur
