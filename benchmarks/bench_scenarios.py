@@ -18,11 +18,19 @@ Targets: detrended <= 0.15, raw <= 0.5, frame-to-frame <= 0.5 (or the frames fla
 Two verdicts: 'met' holds every frame to every target (start-relative); 'met*' excuses the flagged frames: the error
 the ok frames' own steps accumulate (the flagged frames' steps left out) within the raw target, f2f and ok>1 as
 above; the 'raw ok' column shows what a flagged stretch left in the orientation of the ok frames after it. Flagged frames are counted by their reason.
+
+The camera's rolling-shutter readout reaches the estimator the way a user gives it: as the camera setting
+``readout_s`` (camera.yaml; ``walkmon analyze --readout-ms``). By default each clip's camera gets the readout it was
+built with (meta.json's render.rolling_shutter_s: 30 ms for rolling_shutter, 0 for the others), as the user of
+such a camera would set it from its lens profile or datasheet; ``--readout-ms MS`` gives every clip MS instead
+(0: the readout unknown; a wrong value: how much a datasheet error costs). ``--merge`` replaces only the re-run
+scenarios' rows in the results file and keeps the others.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import hashlib
 import json
 import os
@@ -71,8 +79,16 @@ def detrend(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     return x - A @ coef
 
 
-def run(d: Path, overrides: dict | None = None) -> tuple[dict, float]:
-    cam = read_camera_yaml(d / "camera.yaml")
+def camera_readout_s(d: Path, readout_ms: float | None) -> float:
+    """The readout given to the estimator: ``readout_ms`` when set, else the one the clip's camera was built with."""
+    if readout_ms is not None:
+        return readout_ms / 1000.0
+    meta = json.loads((d / "meta.json").read_text(encoding="utf-8"))
+    return float(meta.get("render", {}).get("rolling_shutter_s", 0.0))
+
+
+def run(d: Path, overrides: dict | None = None, readout_ms: float | None = None) -> tuple[dict, float]:
+    cam = dataclasses.replace(read_camera_yaml(d / "camera.yaml"), readout_s=camera_readout_s(d, readout_ms))
     est = RotationEstimator(cam, RotationSettings(**(overrides or {})))
     out = []
     c0 = time.process_time()
@@ -185,6 +201,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--render-only", action="store_true", help="render (cache) the clips and stop")
     ap.add_argument("--cached-only", action="store_true",
                     help="evaluate only the clips already rendered (the table says how many seeds each scenario had)")
+    ap.add_argument("--readout-ms", type=float, default=None, metavar="MS",
+                    help="camera readout given to every clip (default: each clip camera's own, see above)")
+    ap.add_argument("--merge", action="store_true",
+                    help="replace only these scenarios' rows in the results file, keep the other scenarios' rows")
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="RotationSettings overrides")
     args = ap.parse_args(argv)
     overrides = {k: type(getattr(RotationSettings(), k))(v) for k, v in (kv.split("=", 1) for kv in args.set)}
@@ -201,22 +221,34 @@ def main(argv: list[str] | None = None) -> int:
             d = clip(sc, seed, args.seconds, size, cache)  # type: ignore[arg-type]
             if args.render_only:
                 continue
-            r, fps = run(d, overrides)
-            r.update(scenario=sc, seed=seed, fps_cpu=round(fps, 1), meets=meets(r), meets_flagged=meets_flagged(r))
+            r, fps = run(d, overrides, args.readout_ms)
+            r.update(scenario=sc, seed=seed, fps_cpu=round(fps, 1), meets=meets(r), meets_flagged=meets_flagged(r),
+                     readout_ms=round(1000 * camera_readout_s(d, args.readout_ms), 3))
             rows.append(r)
             sys.stderr.write(f"{sc} seed {seed}: det {fmt3(r['detrended_rmse_deg'])} raw {fmt3(r['raw_rmse_deg'])} "
                              f"f2f {r['max_frame_error_deg']:.3f} flagged {r['flagged']} {r['flag_reasons']} "
                              f"ok>1 {r['ok_over_1deg']} (raw {r['ok_raw_over_1deg']}) {fps:.0f} fps\n")
     if args.render_only:
         return 0
-    rows.sort(key=lambda r: (args.scenarios.index(r["scenario"]), r["seed"]))
+    base = args.out or str(RESULTS / ("scenarios" if args.size == "640x480" else f"scenarios-{args.size}"))
+    note = ""
+    if args.merge and Path(base + ".json").is_file():
+        kept = [r for r in json.loads(Path(base + ".json").read_text(encoding="utf-8"))["rows"]
+                if r["scenario"] not in args.scenarios]
+        note = (f" Rows of {', '.join(args.scenarios)} from this run; "
+                f"{', '.join(sorted({r['scenario'] for r in kept}))} kept from the previous results file.")
+        rows += kept
+    order = list(SCENARIOS)
+    rows.sort(key=lambda r: (order.index(r["scenario"]), r["seed"]))
     lines = [
         "# Scenario benchmark (benchmarks/bench_scenarios.py)",
         "",
         (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.machine()} {os.cpu_count()} cores, "
          f"load average {os.getloadavg()[0]:.1f}, Python {platform.python_version()}, OpenCV {cv2.__version__}, one "
          f"thread. Clips: {args.size}, {args.seconds:g} s (2 s standing at each end), 30 fps mp4, seeds 1-{args.seeds}"
-         f"{' (those rendered: --cached-only)' if args.cached_only else ''}, simulator {simulator_key()}."),
+         f"{' (those rendered: --cached-only)' if args.cached_only else ''}, simulator {simulator_key()}. Camera "
+         f"readout: {'each clip camera' + chr(39) + 's own (rolling_shutter 30 ms)' if args.readout_ms is None else f'{args.readout_ms:g} ms for every clip'}."
+         f"{note}"),
         "",
         ("Degrees, pitch/yaw/roll, against truth.csv relative to the first frame. raw: RMSE over every frame; "
          "raw ok: over the frames reported ok only (a flagged stretch's error that stays in the orientation leaks "
@@ -247,7 +279,7 @@ def main(argv: list[str] | None = None) -> int:
               ("| scenario | seeds | worst detrended | worst raw | worst raw ok | worst ok steps | worst f2f (ok) | "
                "flagged (mean) | ok>1 (sum) | met | met* |"),
               "|---|---:|---|---|---|---:|---:|---:|---:|---|---|"]
-    for sc in args.scenarios:
+    for sc in order:
         rs = [r for r in rows if r["scenario"] == sc]
         if not rs:
             continue
@@ -260,7 +292,6 @@ def main(argv: list[str] | None = None) -> int:
                      f"{sum(r['meets'] for r in rs)}/{len(rs)} | {sum(r['meets_flagged'] for r in rs)}/{len(rs)} |")
     text = "\n".join(lines) + "\n"
     sys.stdout.write(text)
-    base = args.out or str(RESULTS / ("scenarios" if args.size == "640x480" else f"scenarios-{args.size}"))
     Path(base + ".md").write_text(text, encoding="utf-8")
     Path(base + ".json").write_text(json.dumps({"args": vars(args), "rows": rows}, indent=1) + "\n", encoding="utf-8")
     return 0

@@ -368,9 +368,11 @@ def open_video(path: str | Path, *, decode_threads: int = 0) -> VideoFile:
 
 
 def _video_rotations(
-    video: str | Path, calib: str | Path | None, method: str, progress: ProgressCallback | None
+    video: str | Path, calib: str | Path | None, method: str, progress: ProgressCallback | None,
+    readout_s: float | None = None,
 ) -> list[RotationEstimate]:
-    """The rotation of every frame of ``video`` (the camera model from ``calib``, scaled to the video's size)."""
+    """The rotation of every frame of ``video`` (the camera model from ``calib``, scaled to the video's size;
+    ``readout_s``, when given, replaces its rolling-shutter readout)."""
     from walkmon.camera.lens_profile import read_camera_file  # noqa: PLC0415  (a YAML, or a Gyroflow .json)
     from walkmon.camera.model import default_camera  # noqa: PLC0415
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
@@ -385,6 +387,8 @@ def _video_rotations(
                 camera.width_px, camera.height_px, frames.width_px, frames.height_px,
             )
             camera = camera.scaled_to(frames.width_px, frames.height_px)
+        if readout_s is not None:
+            camera = dataclasses.replace(camera, readout_s=readout_s)
         estimator = RotationEstimator(camera, RotationSettings(method=method))
         done = [0]
 
@@ -568,6 +572,7 @@ def analyze(
     imu_extrinsics: str = "identity",
     imu_calib: str | Path | None = None,
     progress: ProgressCallback | None = None,
+    readout_s: float | None = None,
 ) -> Analysis:
     """Analyse a walk recorded by a chest-worn camera (and/or an IMU): what ``walkmon analyze`` computes.
 
@@ -582,7 +587,8 @@ def analyze(
     ``eskf-handheld``); ``imu_offset_s``: added to IMU times to put them on the video clock (None: 0 for an imu.csv, estimated from gyro vs
     visual rates for telemetry); ``imu_extrinsics``:
     ``"identity"`` or ``"estimate"`` (from this recording); ``imu_calib``: an accelerometer calibration file of
-    ``walkmon calibrate-imu``;
+    ``walkmon calibrate-imu``; ``readout_s``: the camera's rolling-shutter readout time, top row to bottom (s;
+    replaces the calibration file's ``readout_s``; 0: a global shutter; None: the file's, else 0);
     ``progress(done, total)``: called after every frame. Bad input raises a :class:`~walkmon.errors.WalkmonError`
     with a one-line message.
     """
@@ -615,7 +621,7 @@ def analyze(
         precision = dict.fromkeys(columns, 4)
         source = f"IMU only: {imu}"
     else:
-        estimates = _video_rotations(video, calib, method, progress)
+        estimates = _video_rotations(video, calib, method, progress, readout_s)
         columns = angle_columns(estimates)
         imu_input = None
         if imu is not None:  # camera-IMU fusion: fused pitch/yaw/roll, + pitch_abs/roll_abs, *_video kept

@@ -15,7 +15,9 @@ CC0) has thousands of camera/setting profiles in this JSON format::
 ``distortion_model`` ``opencv_fisheye`` (the default when absent, unless the older flag ``use_opencv_standard`` is
 true) is walkmon's ``equidistant`` model; ``opencv_standard`` is ``plumb_bob`` (k1 k2 p1 p2 k3 ...). Other
 Gyroflow models (``poly3``, ``poly5``, ``gopro_superview``, ``insta360``, ...) and stretched inputs are refused
-with a one-line error. The camera comes at the profile's ``calib_dimension``; ``walkmon analyze --calib
+with a one-line error. ``frame_readout_time`` (ms, the rolling-shutter readout some profiles carry) becomes the
+camera's ``readout_s`` when its ``frame_readout_direction`` is absent or ``TopToBottom`` (other directions are
+refused). The camera comes at the profile's ``calib_dimension``; ``walkmon analyze --calib
 profile.json`` scales it to the video (same aspect ratio: the same lens mode), and ``walkmon calibrate
 profile.json --out camera.yaml`` converts it to the ROS camera_info YAML walkmon's other commands read.
 """
@@ -79,8 +81,16 @@ def camera_from_lens_profile(profile: Any, *, source: str = "lens profile") -> C
             raise ConfigError(msg)
         coeffs = coeffs[:keep]
     name = " ".join(str(profile.get(k) or "") for k in ("camera_brand", "camera_model", "camera_setting")).strip()
+    readout_ms = profile.get("frame_readout_time") or 0.0
+    direction = profile.get("frame_readout_direction") or "TopToBottom"
+    if readout_ms and direction != "TopToBottom":
+        msg = f"{source}: frame_readout_direction {direction!r} is not supported (walkmon reads TopToBottom)"
+        raise ConfigError(msg)
+    if isinstance(readout_ms, bool) or not isinstance(readout_ms, int | float):
+        msg = f"{source}: frame_readout_time must be a number of milliseconds, got {readout_ms!r}"
+        raise ConfigError(msg)
     try:
-        return CameraModel(width, height, K, model, coeffs, name or "lens_profile")
+        return CameraModel(width, height, K, model, coeffs, name or "lens_profile", readout_ms / 1000.0)
     except ConfigError as exc:
         msg = f"{source}: {exc}"
         raise ConfigError(msg) from None

@@ -26,6 +26,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("video", nargs="?", help="video file (any format OpenCV/FFmpeg reads, e.g. mp4); optional with --imu")
     p.add_argument("--calib", metavar="CAMERA", help="ROS camera_info YAML, or a Gyroflow lens profile .json (action "
                    "cameras: fisheye lenses; see 'walkmon calibrate --help'); default: 70 deg HFOV pinhole")
+    p.add_argument("--readout-ms", type=float, default=None, metavar="MS",
+                   help="the camera's rolling-shutter readout time, top row to bottom, 0-100 ms (phones, action and USB "
+                   "cameras: 5-30 ms; 0: global shutter); default: the calibration file's readout_s, else 0")
     p.add_argument("--method", choices=("fast", "paper"), default="fast", help="rotation method (default fast)")
     p.add_argument("--out", required=True, help="output folder (created) for angles.csv")
     p.add_argument("--no-progress", action="store_true", help="no progress bar even on a terminal")
@@ -75,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         result = analyze(args.video, imu=args.imu, calib=args.calib, method=args.method, baseline=args.baseline,
                          mode=args.mode, imu_filter=args.imu_filter, imu_offset_s=args.imu_offset_s,
-                         imu_extrinsics=args.imu_extrinsics, imu_calib=args.imu_calib, progress=progress)
+                         imu_extrinsics=args.imu_extrinsics, imu_calib=args.imu_calib, progress=progress,
+                         readout_s=None if args.readout_ms is None else args.readout_ms / 1000.0)
     finally:
         progress.close()
     files = result.write(out_dir)
