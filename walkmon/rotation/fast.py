@@ -66,8 +66,10 @@ _MAX_STEP_CHANGE_DEG = 4.0
 #: A rolling-shutter camera's tracks are moved to the frame's time when the image's skew from the top row to the
 #: bottom one (rate x readout x focal) exceeds this (px): a fifth of the tracking noise (feature_noise_px).
 _SHUTTER_MIN_SKEW_PX = 0.1
-#: At most this many refits of a frame with the rate its own fit measured (FastEngine._shutter_refit).
-_SHUTTER_ITERATIONS = 2
+#: At most this many refits of a frame with the rate its own fit measured (FastEngine._shutter_refit): one took
+#: rolling_shutter seeds 1-5 to raw 0.8-2.8 deg (two: 0.9-5.5, the second refit chasing the misfits of a turn)
+#: at a fifth of the frame rate when the camera walks (two refits: a third).
+_SHUTTER_ITERATIONS = 1
 #: After a frame faster than max_ok_rate_deg_s, frames stay flagged until the rate falls below this fraction of it.
 _TURN_EXIT_FRACTION = 0.5
 #: ``min_feature_distance_px`` is given for a view this wide and scaled with the frame width.
@@ -496,8 +498,8 @@ class FastEngine:
 
     def _shutter_refit(self, fit: _Fit, t_s: float, n: int) -> _Fit:
         """A rolling-shutter camera's fit again, its tracks moved to the frame's time with the rate the fit itself
-        measured (previous frame -> this one), while that rate differs from the one used by more than
-        _SHUTTER_MIN_SKEW_PX of skew (at most _SHUTTER_ITERATIONS times). The last frame's rate alone lagged the
+        measured (previous frame -> this one), when that rate differs from the one used by more skew than the
+        tracking noise (``feature_noise_px``; at most _SHUTTER_ITERATIONS times). The last frame's rate alone lagged the
         start and the end of a turn by a frame and fed its error back: a frame misread by 50 deg/s skewed the
         next one's tracks by 1.2 px and the estimate rang for several frames (rolling_shutter seed 5)."""
         dt = t_s - self._t_prev if self._t_prev is not None else 0.0
@@ -506,7 +508,7 @@ class FastEngine:
         used = self._frame_rate if self._frame_rate is not None else np.zeros(3)
         for _ in range(_SHUTTER_ITERATIONS):
             rate = shutter.rate_from_step(self._orientation.T @ self._R_kf @ fit.rotation, dt)
-            if shutter.skew_px(rate - used, self._readout_s, self._focal) < _SHUTTER_MIN_SKEW_PX:
+            if shutter.skew_px(rate - used, self._readout_s, self._focal) < self.s.feature_noise_px:
                 break
             self._frame_rate = used = rate
             fit = self._fit(t_s, n)
