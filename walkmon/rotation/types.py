@@ -72,8 +72,10 @@ class RotationSettings:
         start a new keyframe when any is exceeded. ``keyframe_window``: keyframes kept for the sliding-window refinement of each new keyframe's
         orientation (1 = plain chaining). ``feature_noise_px``: tracking noise assumed by the GRIC model selection.
         ``max_ok_rate_deg_s``: a frame turning faster than this is still estimated but flagged LOW_QUALITY
-        (``reason="fast_rotation"``): at a fast torso turn tracking, motion blur and rolling shutter degrade the
-        fit (walking itself turns a chest camera by a few tens of deg/s at most).
+        (``reason="fast_rotation"``), and so are the frames after it until the rate falls below half of it: at a
+        fast torso turn tracking, motion blur and rolling shutter degrade the fit (walking itself turns a chest
+        camera by a few tens of deg/s at most). A rolling-shutter camera's readout is a camera setting
+        (``CameraModel.readout_s``), not a rotation setting.
     both methods
         ``min_inliers``: fewer inliers than this holds the orientation. ``inlier_px``: inlier threshold.
         ``max_frame_rotation_deg``: a frame-to-frame change larger than this is rejected as implausible for a
@@ -152,7 +154,7 @@ FLAG_REASONS = {
     "planar_ambiguity": "the tracks lie on one plane whose two rotations (or the essential's) differ",
     "step_inconsistent": "the fit jumps away from the frame-to-frame tracking of the same points",
     "translation_ambiguity": "looking sideways to the walker's heading, a translation and a rotation fit alike",
-    "fast_rotation": "turning faster than max_ok_rate_deg_s: tracking, blur and rolling shutter degrade",
+    "fast_rotation": "turning faster than max_ok_rate_deg_s, or since, until the rate halved: tracking and blur degrade",
     "few_inliers": "fewer inliers than min_inliers: held",
     "implausible_step": "a frame-to-frame change above max_frame_rotation_deg: held",
     "tracking_lost": "fewer tracked points than min_inliers: held, tracking restarts",
