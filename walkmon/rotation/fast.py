@@ -67,7 +67,7 @@ _MAX_STEP_CHANGE_DEG = 4.0
 #: bottom one (rate x readout x focal) exceeds this (px): a fifth of the tracking noise (feature_noise_px).
 _SHUTTER_MIN_SKEW_PX = 0.1
 #: At most this many refits of a frame with the rate its own fit measured (FastEngine._shutter_refit): one took
-#: rolling_shutter seeds 1-5 to raw 0.8-2.8 deg (two: 0.9-5.5, the second refit chasing the misfits of a turn)
+#: rolling_shutter seeds 1-5 to a raw error (as an angle) of 0.8-2.8 deg (two: 0.9-5.5, the second chasing a turn's misfits)
 #: at a fifth of the frame rate when the camera walks (two refits: a third).
 _SHUTTER_ITERATIONS = 1
 #: After a frame faster than max_ok_rate_deg_s, frames stay flagged until the rate falls below this fraction of it.
