@@ -32,6 +32,7 @@ from walkmon.rotation.types import (
     RotationSettings,
     make_estimate,
 )
+from walkmon.rotation.vertical import VerticalReference
 
 __all__ = ["FastEngine"]
 
@@ -107,6 +108,11 @@ class FastEngine:
         self._travel: NDArray[np.float64] | None = None
         self._t_prev: float | None = None
         self._last_step: NDArray[np.float64] | None = None  # the last accepted frame-to-frame rotation
+        self._t_s = 0.0
+        # pitch/roll drift corrected at keyframes from vertical lines (see walkmon.rotation.vertical)
+        self._vertical = (
+            VerticalReference(drift_deg_per_s=settings.vertical_drift_deg_s) if settings.vertical_reference else None
+        )
         self.started = False
 
     # ----------------------------------------------------------------------------------------------------------
@@ -198,6 +204,8 @@ class FastEngine:
         """Make the current frame the keyframe (orientation refined over the window); top up the corners."""
         if self.s.keyframe_window > 1:
             self._orientation = self._refined_keyframe_orientation()
+        if self._vertical is not None:
+            self._orientation = self._vertical.correct(small, self._orientation, self._t_s, self._normalized, self._sx)
         new = self._detect(small, self._pts)
         new_ids = np.arange(self._next_id, self._next_id + new.shape[0], dtype=np.int64)
         self._next_id += new.shape[0]
@@ -324,6 +332,7 @@ class FastEngine:
     # ----------------------------------------------------------------------------------------------------------
     def push(self, grey: NDArray[np.uint8], t_s: float) -> RotationEstimate:
         """The orientation at ``t_s`` from one grey frame: screen the frame, track, fit, accept or hold."""
+        self._t_s = t_s
         small = self._tracking_image(grey)
         held = self._screen(small, t_s)
         if held is not None:
