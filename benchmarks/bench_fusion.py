@@ -66,6 +66,14 @@ def simulated(walk: str, seconds: float, seed: int, cache: Path) -> Path:
     return d
 
 
+def is_cached(cache: Path, walk: str, seconds: float, seed: int) -> bool:
+    """Whether :func:`simulated` would find this clip without simulating it."""
+    from walkmon.simulate.cache import KEY_FILE, simulation_key  # noqa: PLC0415
+
+    key = simulation_key(walk=walk, seconds=seconds, seed=seed)
+    return any((d / KEY_FILE).is_file() for d in cache.glob(f"*-s{seed}-*-{key}"))
+
+
 def vision(d: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Frame times, start-relative rotations and 'measured' flags from the fast rotation estimator."""
     import cv2  # noqa: PLC0415
@@ -440,6 +448,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--broad", default=str(BROAD_DEFAULT))
     p.add_argument("--no-write", action="store_true", help="print only")
     p.add_argument("--from-json", action="store_true", help="re-render fusion.md from fusion.json (no runs)")
+    p.add_argument("--cached-only", action="store_true",
+                   help="only the walk/seed clips already simulated under --cache (the table lists what ran)")
     args = p.parse_args(argv)
     if args.from_json:
         data = json.loads((RESULTS / "fusion.json").read_text(encoding="utf-8"))
@@ -453,12 +463,18 @@ def main(argv: list[str] | None = None) -> int:
     seconds = 8.0 if args.quick else args.seconds
     seeds = [1] if args.quick else args.seeds
     walk_rows = []
+    skipped = []
     for w in walks:
         for seed in seeds:
+            if args.cached_only and not is_cached(cache, w, seconds, seed):
+                skipped.append(f"{w} seed {seed}")
+                continue
             sys.stderr.write(f"walk {w} seed {seed} ...\n")
             walk_rows.append(bench_walk(w, seconds, seed, cache, sweep=args.sweep_weights))
     broad_rows: list[dict] = []  # real IMU data: benchmarks/bench_broad.py
     text = tables(walk_rows, broad_rows)
+    if skipped:
+        text += f"\nNot run (not simulated yet, --cached-only): {', '.join(skipped)}.\n"
     sys.stdout.write(text)
     if not args.no_write:
         RESULTS.mkdir(parents=True, exist_ok=True)
