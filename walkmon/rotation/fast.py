@@ -33,6 +33,7 @@ from walkmon.rotation.types import (
     RotationSettings,
     make_estimate,
 )
+from walkmon.rotation.vertical import VerticalReference
 
 __all__ = ["FastEngine"]
 
@@ -123,6 +124,11 @@ class FastEngine:
         self._rate: NDArray[np.float64] | None = None
         self._frame_rate: NDArray[np.float64] | None = None
         self._in_turn = False  # a frame turned faster than max_ok_rate_deg_s and the rate has not halved since
+        self._t_s = 0.0
+        # pitch/roll drift corrected at keyframes from vertical lines (see walkmon.rotation.vertical)
+        self._vertical = (
+            VerticalReference(drift_deg_per_s=settings.vertical_drift_deg_s) if settings.vertical_reference else None
+        )
         self.started = False
 
     # ----------------------------------------------------------------------------------------------------------
@@ -218,6 +224,8 @@ class FastEngine:
         """Make the current frame the keyframe (orientation refined over the window); top up the corners."""
         if self.s.keyframe_window > 1:
             self._orientation = self._refined_keyframe_orientation()
+        if self._vertical is not None:
+            self._orientation = self._vertical.correct(small, self._orientation, self._t_s, self._normalized, self._sx)
         new = self._detect(small, self._pts)
         new_ids = np.arange(self._next_id, self._next_id + new.shape[0], dtype=np.int64)
         self._next_id += new.shape[0]
@@ -344,6 +352,7 @@ class FastEngine:
     # ----------------------------------------------------------------------------------------------------------
     def push(self, grey: NDArray[np.uint8], t_s: float) -> RotationEstimate:
         """The orientation at ``t_s`` from one grey frame: screen the frame, track, fit, accept or hold."""
+        self._t_s = t_s
         small = self._tracking_image(grey)
         held = self._screen(small, t_s)
         if held is not None:

@@ -76,6 +76,9 @@ class RotationSettings:
         fast torso turn tracking, motion blur and rolling shutter degrade the fit (walking itself turns a chest
         camera by a few tens of deg/s at most). A rolling-shutter camera's readout is a camera setting
         (``CameraModel.readout_s``), not a rotation setting.
+        ``vertical_reference``: correct pitch/roll drift at keyframes from vertical lines (the vertical vanishing
+        direction, :mod:`walkmon.rotation.vertical`); ``vertical_drift_deg_s``: how fast the odometry's tilt error
+        is assumed to grow (the correction's process noise, deg after one second).
     both methods
         ``min_inliers``: fewer inliers than this holds the orientation. ``inlier_px``: inlier threshold.
         ``max_frame_rotation_deg``: a frame-to-frame change larger than this is rejected as implausible for a
@@ -99,6 +102,8 @@ class RotationSettings:
     keyframe_max_rotation_deg: float = 8.0
     keyframe_max_parallax_deg: float = 3.0
     keyframe_window: int = 4
+    vertical_reference: bool = True
+    vertical_drift_deg_s: float = 0.03
     feature_noise_px: float = 0.5
     min_inliers: int = 12
     inlier_px: float = 2.0
@@ -127,6 +132,7 @@ class RotationSettings:
             "keyframe_max_rotation_deg": self.keyframe_max_rotation_deg > 0,
             "keyframe_max_parallax_deg": self.keyframe_max_parallax_deg > 0,
             "keyframe_window": 1 <= self.keyframe_window <= 20,
+            "vertical_drift_deg_s": self.vertical_drift_deg_s > 0,
             "feature_noise_px": self.feature_noise_px > 0,
             "min_inliers": self.min_inliers >= 5,
             "inlier_px": self.inlier_px > 0,

@@ -1,0 +1,155 @@
+"""The vertical reference (walkmon.rotation.vertical): the vertical vanishing direction measured from line
+segments against the true one, and the keyframe correction that pulls a drifted tilt back to the world's
+vertical learnt at the start, on drawn images of vertical edges with a known camera orientation."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from walkmon.consts import rotation_from_angles_deg as _angles
+from walkmon.rotation.geometry import rotation_angle_deg
+from walkmon.rotation.vertical import VerticalReference, vertical_fit
+
+F_PX, W, H = 230.0, 320, 240
+CX, CY = (W - 1) / 2, (H - 1) / 2
+
+
+def rotation_from_angles_deg(pitch: float, yaw: float, roll: float) -> np.ndarray:
+    """One rotation (3, 3) from walkmon's angles (degrees)."""
+    return np.asarray(_angles(pitch, yaw, roll), dtype=float).reshape(3, 3)
+
+
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    return math.degrees(math.acos(min(1.0, abs(float(a @ b)) / float(np.linalg.norm(a) * np.linalg.norm(b)))))
+
+
+def _vertical_edges(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 2, 3) world segments along the world's vertical (y down), in a 70 deg view: facade edges 6-14 m ahead,
+    2-4 m aside, 1-3 m long."""
+    x = rng.choice([-1.0, 1.0], n) * rng.uniform(2.0, 4.0, n)
+    z = rng.uniform(6.0, 14.0, n)
+    y0 = rng.uniform(-2.5, 0.0, n)
+    y1 = y0 + rng.uniform(1.0, 3.0, n)
+    return np.stack([np.c_[x, y0, z], np.c_[x, y1, z]], axis=1)
+
+
+def _project(R: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Homogeneous normalised coordinates of world points seen by a camera at the origin with orientation R."""
+    c = pts @ R  # R.T @ p for each point
+    return c / c[..., 2:3]
+
+
+def test_vertical_fit_finds_the_true_vertical_among_clutter() -> None:
+    rng = np.random.default_rng(1)
+    R = rotation_from_angles_deg(-4.0, 7.0, 3.0)  # camera pitched down, turned, rolled
+    truth = R.T @ np.array([0.0, 1.0, 0.0])  # world vertical in the camera frame
+    seg = _project(R, _vertical_edges(rng, 40))
+    noisy = seg.copy()
+    noisy[..., :2] += rng.normal(0, 0.3 / F_PX, noisy[..., :2].shape)  # 0.3 px endpoint noise
+    clutter = np.concatenate([rng.uniform(-0.6, 0.6, (30, 2, 2)), np.ones((30, 2, 1))], axis=2)  # other lines
+    p0 = np.concatenate([noisy[:, 0], clutter[:, 0]])
+    p1 = np.concatenate([noisy[:, 1], clutter[:, 1]])
+    length_px = F_PX * np.linalg.norm(p1[:, :2] - p0[:, :2], axis=1)
+    predicted = rotation_from_angles_deg(0.6, 0.0, -0.8) @ truth  # the odometry's prediction, ~1 deg off
+    fit = vertical_fit(p0, p1, predicted, length_px**2, floor_deg=0.0)
+    assert fit is not None and fit.n_lines >= 30
+    assert _angle_deg(fit.vertical, truth) < 0.15, _angle_deg(fit.vertical, truth)
+    # the same answer from a prediction 1 deg off as from the truth itself (not pulled by the prediction)
+    again = vertical_fit(p0, p1, truth, length_px**2, floor_deg=0.0)
+    assert again is not None and _angle_deg(again.vertical, fit.vertical) < 0.01
+    # an honest covariance: the error, in the fit's basis, is within 3.5 standard deviations (Mahalanobis)
+    err = fit.basis.T @ np.cross(fit.vertical, truth)
+    assert float(err @ np.linalg.solve(fit.covariance, err)) < 3.5**2
+
+
+def test_vertical_fit_says_pitch_is_weaker_than_roll_for_a_level_camera() -> None:
+    """Vertical lines of a level camera meet far below the image: they pin the roll, barely the pitch."""
+    rng = np.random.default_rng(2)
+    R = np.eye(3)
+    seg = _project(R, _vertical_edges(rng, 40))
+    seg[..., :2] += rng.normal(0, 0.3 / F_PX, seg[..., :2].shape)
+    w = (F_PX * np.linalg.norm(seg[:, 1, :2] - seg[:, 0, :2], axis=1)) ** 2
+    fit = vertical_fit(seg[:, 0], seg[:, 1], np.array([0.0, 1.0, 0.0]), w, floor_deg=0.0)
+    assert fit is not None
+    # variance of a rotation about the camera's x axis (pitch) vs its z axis (roll), from the basis
+    cov3 = fit.basis @ fit.covariance @ fit.basis.T
+    assert cov3[0, 0] > 4 * cov3[2, 2]
+
+
+def test_too_few_lines_give_no_fit() -> None:
+    rng = np.random.default_rng(3)
+    seg = _project(np.eye(3), _vertical_edges(rng, 8))
+    w = np.ones(8)
+    assert vertical_fit(seg[:, 0], seg[:, 1], np.array([0.0, 1.0, 0.0]), w, min_lines=12) is None
+
+
+def _drawn(R: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """A 320x240 grey image of the edges as bright bands on a darker wall, seen with orientation R."""
+    img = np.full((H, W), 60, np.uint8)
+    seg = _project(R, edges)
+    px = seg[..., :2] * F_PX + np.array([CX, CY])
+    for a, b in px:
+        p, q = (int(round(a[0] * 16)), int(round(a[1] * 16))), (int(round(b[0] * 16)), int(round(b[1] * 16)))
+        cv2.line(img, p, q, 200, 3, cv2.LINE_AA, shift=4)
+    return cv2.GaussianBlur(img, (3, 3), 0.7)
+
+
+def _normalized(pts: np.ndarray) -> np.ndarray:
+    xy = (pts.reshape(-1, 2).astype(float) - np.array([CX, CY])) / F_PX
+    return np.c_[xy, np.ones(len(xy))]
+
+
+@pytest.mark.parametrize("error", [(0.0, 0.0, 1.0), (0.8, 0.0, -0.6)])
+def test_correction_pulls_a_drifted_tilt_back_and_leaves_yaw(error: tuple[float, float, float]) -> None:
+    rng = np.random.default_rng(4)
+    edges = _vertical_edges(rng, 60)
+    ref = VerticalReference()
+    R_true = rotation_from_angles_deg(-3.0, 5.0, 2.0)
+    img = _drawn(R_true, edges)
+    t = 0.0
+    for _ in range(ref.init_measurements):  # the start: the odometry is right, the world's vertical is learnt
+        assert np.allclose(ref.correct(img, R_true, t, _normalized), R_true)  # no correction while learning
+        t += 1.0
+    assert ref.world_vertical is not None
+    # from one drawn 320x240 view (its lines meet far below the image: pitch is the weak direction)
+    assert _angle_deg(ref.world_vertical, np.array([0.0, 1.0, 0.0])) < 0.5
+    # later the odometry has drifted in pitch/roll by `error` (camera frame), the view is the same
+    drift = rotation_from_angles_deg(*error)
+    R = R_true @ drift
+    start = rotation_angle_deg(R_true.T @ R)
+    errors = []
+    for _ in range(40):  # one keyframe a second; the filter trusts the lines more as the tilt uncertainty grows
+        R = ref.correct(img, R, t, _normalized)
+        errors.append(rotation_angle_deg(R_true.T @ R))
+        t += 1.0
+    assert errors[-1] < 0.15 * start, (start, errors)
+    assert all(b <= a + 1e-9 for a, b in zip(errors, errors[1:], strict=False))  # steadily, no overshoot
+    assert max(a - b for a, b in zip([start, *errors], errors, strict=False)) < 0.35  # gently: no jump
+    assert ref.corrections == 40
+    # the correction is a tilt: the heading (the camera's forward axis about the world's vertical) is kept
+    fwd_true, fwd = R_true[:, 2], R[:, 2]
+    heading = math.degrees(math.atan2(fwd[0], fwd[2]) - math.atan2(fwd_true[0], fwd_true[2]))
+    heading_start = math.degrees(math.atan2((R_true @ drift)[0, 2], (R_true @ drift)[2, 2])
+                                 - math.atan2(fwd_true[0], fwd_true[2]))
+    assert abs(heading - heading_start) < 0.1
+
+
+def test_fast_turns_and_featureless_views_are_not_corrected() -> None:
+    rng = np.random.default_rng(5)
+    edges = _vertical_edges(rng, 60)
+    ref = VerticalReference()
+    R0 = np.eye(3)
+    img = _drawn(R0, edges)
+    for k in range(ref.init_measurements):
+        ref.correct(img, R0, float(k), _normalized)
+    tilted = R0 @ rotation_from_angles_deg(0.0, 0.0, 1.0)
+    # a 40 deg turn within one second (rolling shutter leans vertical lines): skipped
+    turned = rotation_from_angles_deg(0.0, 40.0, 0.0) @ tilted
+    assert np.allclose(ref.correct(img, turned, float(ref.init_measurements), _normalized), turned)
+    # a uniform (fog, lens cap) view: nothing to measure
+    blank = np.full((H, W), 90, np.uint8)
+    assert np.allclose(ref.correct(blank, tilted, 100.0, _normalized), tilted)
