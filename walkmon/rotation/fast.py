@@ -275,10 +275,14 @@ class FastEngine:
         pose = geo.refine_relative_pose(
             q_kf, q_cur, self._focal, R_rot, None, scale_px=sigma * 2, inlier_px=self.s.inlier_px, iterations=4,
         )
-        on_heading = self._heading_fit(q_kf, q_cur, pose)
-        if on_heading is not None:
-            return on_heading, "heading"
-        self._centre = pose.centre
+        # the tracks' noise: the free fit's robust spread over all tracks (the median ignores a minority of movers)
+        noise = max(1.4826 * float(np.median(np.abs(pose.residuals_px))), 1e-3)
+        if math.radians(self._parallax_deg) * self._focal >= _HEADING_MAX_SNR * noise:
+            self._centre = pose.centre  # a baseline the tracks determine: the walker's heading learns from it
+        else:
+            on_heading = self._heading_fit(q_kf, q_cur, pose, noise)
+            if on_heading is not None:
+                return on_heading, "heading"
         if self._travel is None:
             return pose, ""
         travel = self._R_kf.T @ self._travel
@@ -301,7 +305,7 @@ class FastEngine:
         return pose, ""
 
     def _heading_fit(
-        self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], pose: geo.PoseFit,
+        self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], pose: geo.PoseFit, noise: float,
     ) -> geo.PoseFit | None:
         """The essential model with the baseline fixed along the walker's heading, when the tracks cannot tell it
         from the free essential fit ``pose``; None to keep ``pose``.
@@ -333,9 +337,6 @@ class FastEngine:
         )
         use = pose.inliers | held.inliers
         if np.count_nonzero(use) < 8:
-            return None
-        noise = max(1.4826 * float(np.median(np.abs(pose.residuals_px[use]))), 1e-3)
-        if math.radians(self._parallax_deg) * self._focal >= _HEADING_MAX_SNR * noise:
             return None
         if geo.gric(held.residuals_px[use], noise, 3, 3) <= geo.gric(pose.residuals_px[use], noise, 3, 5):
             return held
