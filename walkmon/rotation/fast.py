@@ -57,6 +57,11 @@ _PLANAR_AMBIGUITY_TRACK_PX = 4.0
 _ALT_START_MIN_DEG = 30.0
 _ALT_COST_RATIO = 0.8
 _HEADING_TAU_S = 2.0
+#: The essential model with the baseline along the walker's heading (see FastEngine._heading_fit) is considered
+#: only when the parallax since the keyframe (the rotation-only fit's median residual) is below this multiple of
+#: the tracks' noise: above it the free essential fit's baseline is well determined (street and wall: 20-40x;
+#: night and fog: 3-8x, where it is biased towards the tracks' centroid and takes the rotation with it).
+_HEADING_MAX_SNR = 10.0
 #: A fit further than this (deg) from the previous frame's estimate moved on by the rotation-only fit's
 #: frame-to-frame change is flagged LOW_QUALITY ("step_inconsistent") and the chained change used instead.
 _STEP_JUMP_DEG = 1.0
@@ -129,6 +134,11 @@ class FastEngine:
         self._vertical = (
             VerticalReference(drift_deg_per_s=settings.vertical_drift_deg_s) if settings.vertical_reference else None
         )
+        # the walker's direction of travel in the first frame's axes (see _heading_fit): the optical axis at the
+        # start, then low-passed from the baselines of the free essential fits accepted; None after a flagged
+        # turn or jump (the orientation it is kept in may be off) until the next free essential fit
+        self._heading: NDArray[np.float64] | None = np.array([0.0, 0.0, 1.0])
+        self._centre: NDArray[np.float64] | None = None  # this frame's free essential baseline (keyframe axes)
         self.started = False
 
     # ----------------------------------------------------------------------------------------------------------
@@ -264,7 +274,8 @@ class FastEngine:
         on the common path). It replaces the first only when its robust cost is clearly lower (below
         _ALT_COST_RATIO times), never on a noise-level difference along the flat valley. The heading is not
         taken from the essential fits' baselines: fits in the wrong minimum dragged it along with the camera.
-        Returns the fit and ``"sideways"`` when the second start gave it, ``"ambiguous"`` when neither start's
+        Returns the fit and ``"heading"`` when the baseline was fixed along the walker's heading (see
+        _heading_fit; tried first), ``"sideways"`` when the second start gave it, ``"ambiguous"`` when neither start's
         cost is clearly lower and their rotations differ by more than _PLANAR_AMBIGUITY_DEG (the frame is then
         flagged: "translation_ambiguity"), else ``""``.
         """
@@ -272,6 +283,14 @@ class FastEngine:
         pose = geo.refine_relative_pose(
             q_kf, q_cur, self._focal, R_rot, None, scale_px=sigma * 2, inlier_px=self.s.inlier_px, iterations=4,
         )
+        # the tracks' noise: the free fit's robust spread over all tracks (the median ignores a minority of movers)
+        noise = max(1.4826 * float(np.median(np.abs(pose.residuals_px))), 1e-3)
+        if math.radians(self._parallax_deg) * self._focal >= _HEADING_MAX_SNR * noise:
+            self._centre = pose.centre  # a baseline the tracks determine: the walker's heading learns from it
+        else:
+            on_heading = self._heading_fit(q_kf, q_cur, pose, noise)
+            if on_heading is not None:
+                return on_heading, "heading"
         if self._travel is None:
             return pose, ""
         travel = self._R_kf.T @ self._travel
@@ -292,6 +311,44 @@ class FastEngine:
         if cost_alt * _ALT_COST_RATIO <= cost and gap > _PLANAR_AMBIGUITY_DEG:
             return pose, "ambiguous"
         return pose, ""
+
+    def _heading_fit(
+        self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], pose: geo.PoseFit, noise: float,
+    ) -> geo.PoseFit | None:
+        """The essential model with the baseline fixed along the walker's heading, when the tracks cannot tell it
+        from the free essential fit ``pose``; None to keep ``pose``.
+
+        In the dark (night: tracks 10x noisier than in daylight) and in fog (only the ground and facades within
+        ~6 m, all below or beside the view's centre), the parallax since the keyframe is only 3-8x the tracks'
+        noise. The free fit's Sampson cost is then nearly flat along the valley in which a baseline error trades
+        against a rotation error, and its minimum is biased: the estimated baseline leans towards the tracks'
+        centroid (downwards onto the ground) and the rotation pays for it, by a consistent ~0.05 deg in pitch a
+        frame (fog seed 2: 3 deg in 4 s of walking; with the true baseline direction fixed, 0.01). A walker moves
+        along a heading; his chest strays from it by a few cm a step, an error that does not accumulate (the
+        chain of keyframes telescopes it) where the free fit's bias does. So when the parallax is below
+        _HEADING_MAX_SNR times the noise (1.4826 x the free fit's median absolute Sampson error), the camera looks
+        within _ALT_START_MIN_DEG of the heading and it is not turning, the essential model refined with the
+        baseline fixed along the heading (3 parameters) competes with the free one (5) by GRIC at that noise:
+        kept unless the tracks reject the heading. Open streets and walls (parallax 20-40x the noise) never use
+        it, so their estimates are unchanged. The heading is the optical axis at the start (a walker looks ahead
+        on average; the free fits correct it), low-passed over _HEADING_TAU_S from the free fits' baselines.
+        """
+        if self._heading is None:
+            return None
+        prior = self._R_kf.T @ self._heading
+        turning = self._last_step is not None and geo.rotation_angle_deg(self._last_step) >= _PREDICT_MIN_STEP_DEG
+        if turning or prior[2] < math.cos(math.radians(_ALT_START_MIN_DEG)):
+            return None
+        held = geo.refine_relative_pose(
+            q_kf, q_cur, self._focal, pose.rotation, prior, scale_px=2 * self.s.feature_noise_px,
+            inlier_px=self.s.inlier_px, iterations=3, fix_centre=True,
+        )
+        use = pose.inliers | held.inliers
+        if np.count_nonzero(use) < 8:
+            return None
+        if geo.gric(held.residuals_px[use], noise, 3, 3) <= geo.gric(pose.residuals_px[use], noise, 3, 5):
+            return held
+        return None
 
     def _models_disagree(self, rot: geo.RotationFit, pose: geo.PoseFit) -> bool:
         """True when the essential rotation is further from the rotation-only one than the parallax allows.
@@ -384,6 +441,8 @@ class FastEngine:
         if turn == "fast" and fit.status is EstimateStatus.OK:
             # tracking, motion blur and rolling shutter all degrade in a fast turn: the fit stands, flagged
             fit = dataclasses.replace(fit, status=EstimateStatus.LOW_QUALITY, reason="fast_rotation")
+        if fit.status is not EstimateStatus.OK and fit.reason != "planar_ambiguity":
+            self._heading = None  # the orientation it is kept in may be off by degrees: learn it afresh
         new_kf = self._accept(small, orientation, fit, t_s)
         status, reason = fit.status, fit.reason
         if turn == "tail" and status is EstimateStatus.OK:
@@ -537,6 +596,7 @@ class FastEngine:
         # is checked against it (a jump from it is a fit that changed minimum, not a rotation the tracks saw)
         chain = self._R_rel @ self._frame_step(q_cur, rot.inliers)
         fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.OK)
+        self._centre = None
         start = ""
         # the rotation-only fit's median residual as an angle: the parallax since the keyframe (for _accept)
         self._parallax_deg = math.degrees(float(np.median(rot.residuals_px)) / self._focal)
@@ -563,7 +623,8 @@ class FastEngine:
                                reason="models_disagree")
                     _log.debug("t=%.3f: essential and rotation-only fits disagree; rotation-only used", t_s)
                 else:
-                    fit = _Fit("essential", pose.rotation, np.abs(pose.residuals_px), pose.inliers, EstimateStatus.OK)
+                    fit = _Fit("heading" if start == "heading" else "essential", pose.rotation,
+                               np.abs(pose.residuals_px), pose.inliers, EstimateStatus.OK)
         # (not when the second start won: travelling sideways to the view, the rotation-only change between the
         # frames is the biased one, by the translation's 0.5-1 deg a frame past a facade)
         if (fit.status is EstimateStatus.OK and start != "sideways"
@@ -577,6 +638,17 @@ class FastEngine:
                        reason="step_inconsistent")
         self._q_cur = q_cur
         return fit
+
+    def _update_heading(self, centre: NDArray[np.float64], t_s: float) -> None:
+        """Low-pass the walker's heading (first frame's axes) towards an accepted free essential fit's baseline."""
+        if self._heading is None or self._t_prev is None:
+            self._heading = centre / float(np.linalg.norm(centre))
+            return
+        if float(centre @ self._heading) < 0:
+            centre = -centre  # a baseline's sign is not observed
+        gain = 1.0 - math.exp(-max(t_s - self._t_prev, 0.0) / _HEADING_TAU_S)
+        heading = self._heading + gain * (centre - self._heading)
+        self._heading = heading / max(float(np.linalg.norm(heading)), 1e-12)
 
     def _frame_step(self, q_cur: NDArray[np.float64], inliers: NDArray[np.bool_]) -> NDArray[np.float64]:
         """The rotation from the previous frame to this one by the rotation-only model on the same tracks (one
@@ -611,6 +683,8 @@ class FastEngine:
             gain = 1.0 - math.exp(-max(t_s - self._t_prev, 0.0) / _HEADING_TAU_S)
             heading = self._travel + gain * (fwd - self._travel)
             self._travel = heading / max(float(np.linalg.norm(heading)), 1e-12)
+        if self._centre is not None and fit.status is EstimateStatus.OK and fit.model == "essential":
+            self._update_heading(self._R_kf @ self._centre, t_s)
         self._t_prev = t_s
         self._rejected = self._pts[~fit.inliers].reshape(-1, 2)  # where the image disagrees with the camera's motion
         self._keep(fit.inliers)

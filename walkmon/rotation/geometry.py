@@ -246,12 +246,15 @@ def refine_relative_pose(
     scale_px: float = 1.0,
     inlier_px: float = 2.0,
     iterations: int = 10,
+    fix_centre: bool = False,
 ) -> PoseFit:
     """Essential-model refinement of (R, c) by Gauss-Newton on Sampson errors with Cauchy IRLS weights.
 
     Starts at ``rotation_init`` (and ``centre_init``, or the best baseline for that rotation) and takes small
     steps, so the answer stays in the small-rotation basin: the twisted-pair decomposition (~180 degrees away)
-    is never reached. ``c`` and ``-c`` give the same errors; the sign is not meaningful.
+    is never reached. ``c`` and ``-c`` give the same errors; the sign is not meaningful. ``fix_centre`` keeps
+    the baseline direction at ``centre_init`` (required then) and refines the rotation alone: the essential
+    model with a known direction of travel (3 parameters instead of 5).
     """
     a, b = _check_points(q0, q1)
     if a.shape[0] < 5:
@@ -259,6 +262,9 @@ def refine_relative_pose(
         raise InvalidInputError(msg)
     R = np.array(rotation_init, dtype=float)
     w = np.ones(a.shape[0])
+    if fix_centre and centre_init is None:
+        msg = "fix_centre needs centre_init"
+        raise InvalidInputError(msg)
     if centre_init is None:
         w = cauchy_weights(rotation_only_residuals_px(R, a, b, focal_px), 3.0 * scale_px + 1.0)
         c = centre_from_rotation(a, b, R, w)
@@ -275,25 +281,28 @@ def refine_relative_pose(
         # rotation perturbations are first order, (I + eps [e_k]x) R, exact to O(eps^2).
         C = _skew3(c)
         E0 = C @ R
-        Es = np.empty((6, 3, 3))
+        k = 4 if fix_centre else 6
+        Es = np.empty((k, 3, 3))
         Es[0] = E0
         Es[1:4] = E0 + eps * (C @ _GENERATORS @ R)
-        Es[4] = _skew3(c + eps * B[:, 0]) @ R
-        Es[5] = _skew3(c + eps * B[:, 1]) @ R
+        if not fix_centre:
+            Es[4] = _skew3(c + eps * B[:, 0]) @ R
+            Es[5] = _skew3(c + eps * B[:, 1]) @ R
         rs = _sampson_batch(Es, a, b)
         r = rs[0]
         J = ((rs[1:] - r) / eps).T
         w = cauchy_weights(focal_px * r, scale_px)
         JW = J * w[:, None]
-        H = JW.T @ J + 1e-12 * np.eye(5)
+        H = JW.T @ J + 1e-12 * np.eye(k - 1)
         g = JW.T @ r
         try:
             step = -np.linalg.solve(H, g)
         except np.linalg.LinAlgError:
             break
         R = rotation_from_rotvec(step[:3]) @ R
-        c = c + B @ step[3:]
-        c = c / np.linalg.norm(c)
+        if not fix_centre:
+            c = c + B @ step[3:]
+            c = c / np.linalg.norm(c)
         if float(step @ step) < 1e-14:
             break
     res = sampson_residuals_px(essential_from_pose(R, c), a, b, focal_px)

@@ -175,7 +175,8 @@ class RotationEstimate:
     """The camera orientation at ``t_s`` relative to the first frame.
 
     ``rotation`` maps this frame's directions into the first frame's; ``angles_deg`` is (pitch, yaw, roll).
-    ``model`` is ``"rotation"`` (rotation-only/homography), ``"essential"``, ``"hold"`` (orientation held,
+    ``model`` is ``"rotation"`` (rotation-only/homography), ``"essential"``, ``"heading"`` (essential with the
+    baseline fixed along the walker's heading: noisy tracks, little parallax), ``"hold"`` (orientation held,
     see ``status``) or ``"identity"`` (first frame). ``n_inliers`` counts matches that agree with the model,
     ``n_tracks`` the matches tried, ``residual_px`` their median error, ``keyframe`` whether this frame became
     a keyframe. ``reason`` says why a frame is not ok (empty when it is), one of :data:`FLAG_REASONS`.
