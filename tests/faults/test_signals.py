@@ -12,9 +12,11 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 SEED = 2026
 CAMERA = "sim:normal:60?width=96&height=72&realtime=1"
@@ -73,6 +75,20 @@ def _drive(proc: subprocess.Popen[str], data: Path, sig: signal.Signals, delay: 
             proc.send_signal(signal.SIGTERM)
 
 
+@pytest.fixture
+def sigint_not_ignored() -> Iterator[None]:
+    """Children inherit an ignored SIGINT (a test run started in the background of a shell without job
+    control, nohup): the interpreter then keeps ignoring it until walkmon installs its handlers, and a SIGINT in
+    the first moments is lost. A terminal or systemd starts walkmon with SIGINT at its default; so do these runs
+    (a Python-level handler in this process is reset to the default in each child at exec)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+@pytest.mark.usefixtures("sigint_not_ignored")
 def test_signals_at_random_times_always_close_the_session(tmp_path: Path) -> None:
     runs = _schedule()
     results = []
@@ -119,3 +135,62 @@ def test_signals_at_random_times_always_close_the_session(tmp_path: Path) -> Non
         outcomes.append("session" if sessions else "none")
     print("signal outcomes:", {k: outcomes.count(k) for k in sorted(set(outcomes))})  # noqa: T201 - for -s runs
     assert outcomes.count("session") >= 3  # the runs counted from the first frames hit running sessions
+
+
+class _Stops:
+    def __init__(self) -> None:
+        self.reasons: list[str] = []
+
+    def stop(self, reason: str = "stopped") -> None:
+        self.reasons.append(reason)
+
+    def request_calibration(self) -> None:  # pragma: no cover - not sent here
+        pass
+
+
+def test_a_signal_turned_into_another_error_by_library_code_still_ends_as_interrupted(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """A SIGTERM raised while a C extension is being imported comes back as an ImportError (pybind11 converts
+    it; seen as 'generic_type: type "ObjSense" is already registered!' from SciPy on the next import): the
+    command must still end as interrupted, one line and 128 + 15, not as an error with exit 2."""
+    import argparse
+    import os
+
+    from walkmon.commands import _signals, cli
+    from walkmon.errors import WalkmonError
+
+    def run(_args: argparse.Namespace) -> int:
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1.0)  # the handler runs here and raises Interrupted
+        except BaseException as exc:  # what the extension's import machinery does with it
+            raise ImportError("initialization failed") from exc
+        return 0
+
+    def failing_run(args: argparse.Namespace) -> int:
+        try:
+            return run(args)
+        except ImportError as exc:
+            raise WalkmonError(f"unexpected error: {exc!r}") from exc
+
+    fake = argparse.Namespace(NAME="fake", HELP="a command whose library turns a signal into an error",
+                              add_arguments=lambda p: None, run=failing_run)
+    monkeypatch.setattr(cli, "_commands", lambda: [fake])
+    assert cli.main(["fake"]) == 128 + signal.SIGTERM
+    err = capsys.readouterr().err
+    assert err == "walkmon: interrupted (SIGTERM)\n"
+    assert _signals.received() is None  # main() put the handlers and the record back
+
+    # swallowed on its way up: the next target (walkmon live's pending stop) is stopped at once
+    previous = _signals.install()
+    try:
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(1.0)
+        except _signals.Interrupted:
+            pass  # a library that catches everything and goes on
+        stops = _Stops()
+        with _signals.deliver_to(stops):
+            assert stops.reasons == ["signal SIGINT"]
+    finally:
+        _signals.restore(previous)

@@ -20,7 +20,7 @@ import signal
 from collections.abc import Callable, Iterator
 from typing import Any, Protocol, TypeVar
 
-__all__ = ["Interrupted", "PendingStop", "deliver_to", "install", "signal_name"]
+__all__ = ["Interrupted", "PendingStop", "deliver_to", "install", "received", "signal_name"]
 
 
 class Interrupted(BaseException):  # noqa: N818 - like KeyboardInterrupt, not an error
@@ -45,13 +45,25 @@ def signal_name(signum: int) -> str:
 
 _target: StopTarget | None = None
 _T = TypeVar("_T", bound=StopTarget)
+#: the first SIGINT/SIGTERM raised as :class:`Interrupted` (until :func:`restore`): an exception raised inside
+#: library code can come back as another one (a C extension being imported turns it into an ImportError, and
+#: the half-imported module then fails differently) or be swallowed; see :func:`received`
+_received: int | None = None
 
 
 def _on_stop(signum: int, _frame: object) -> None:
+    global _received  # noqa: PLW0603 - one process-wide signal disposition
     target = _target
     if target is None:
+        if _received is None:
+            _received = signum
         raise Interrupted(signum)
     target.stop(f"signal {signal_name(signum)}")
+
+
+def received() -> int | None:
+    """The stop signal raised as :class:`Interrupted` since :func:`install`, whatever became of the exception."""
+    return _received
 
 
 def _on_usr1(_signum: int, _frame: object) -> None:
@@ -78,6 +90,8 @@ def install() -> dict[int, Any]:
 
 def restore(previous: dict[int, Any]) -> None:
     """Put back the handlers :func:`install` replaced (main() called in-process, e.g. by tests)."""
+    global _received  # noqa: PLW0603 - one process-wide signal disposition
+    _received = None
     for sig, fn in previous.items():
         signal.signal(sig, fn if fn is not None else signal.SIG_DFL)
 
@@ -89,6 +103,8 @@ def deliver_to(target: _T) -> Iterator[_T]:
     global _target  # noqa: PLW0603 - one process-wide signal disposition
     previous = _target
     _target = target
+    if _received is not None:  # raised earlier but swallowed on its way up (library code): stop now
+        target.stop(f"signal {signal_name(_received)}")
     try:
         yield target
     finally:

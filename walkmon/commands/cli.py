@@ -82,6 +82,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     import sqlite3  # noqa: PLC0415
 
+    from walkmon.commands import _signals  # noqa: PLC0415
+
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(
@@ -94,17 +96,21 @@ def _main(argv: Sequence[str] | None) -> int:
     try:
         return int(args._run(args) or 0)
     except WalkmonError as exc:
-        sys.stderr.write(f"walkmon {args.command}: error: {' '.join(str(exc).splitlines())}\n")
+        why = " ".join(str(exc).splitlines())
     except FileNotFoundError as exc:
-        sys.stderr.write(f"walkmon {args.command}: error: {exc.filename or exc}: no such file or directory\n")
+        why = f"{exc.filename or exc}: no such file or directory"
     except PermissionError as exc:
-        sys.stderr.write(f"walkmon {args.command}: error: {exc.filename or exc}: permission denied\n")
+        why = f"{exc.filename or exc}: permission denied"
     except OSError as exc:
-        sys.stderr.write(f"walkmon {args.command}: error: {exc}\n")
+        why = str(exc)
     except sqlite3.Error as exc:
-        sys.stderr.write(f"walkmon {args.command}: error: session database: {exc}\n")
+        why = f"session database: {exc}"
     except (RecursionError, MemoryError) as exc:
-        sys.stderr.write(f"walkmon {args.command}: error: input too deeply nested or too large ({type(exc).__name__})\n")
+        why = f"input too deeply nested or too large ({type(exc).__name__})"
+    signum = _signals.received()
+    if signum is not None:  # the signal came back as another error (raised inside a C extension's import)
+        raise _signals.Interrupted(signum)
+    sys.stderr.write(f"walkmon {args.command}: error: {why}\n")
     return EXIT_USAGE
 
 
