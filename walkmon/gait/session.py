@@ -78,6 +78,7 @@ class SessionSettings:
     max_drift_deg: float = 8.0
     transition_s: float = 1.5
     pause_factor: float = 1.3
+    turn_reference_deg: float = 4.0
 
 
 DEFAULT_SESSION_SETTINGS = SessionSettings()
@@ -185,34 +186,132 @@ def _upright(
     return np.zeros(3), "first frame (no standing phase and no IMU: assumed upright)", None
 
 
-def _remove_drift(
+@dataclass(frozen=True, slots=True)
+class ReferenceUncertainty:
+    """How well the upright reference holds at each sample of video angles (no gravity): ``deg`` (N, 2) the
+    pitch/roll bound of the orientation error carried since the nearest re-reference, 0 where a standing phase
+    in the same straight stretch re-referenced it; ``why`` (N,) an index into ``reasons`` (-1: none)."""
+
+    deg: NDArray[np.float64]
+    why: NDArray[np.int64]
+    reasons: tuple[str, ...]
+
+
+def _standing_anchors(
     t: NDArray, a: NDArray, seg: Segmentation, first: tuple[float, float], s: SessionSettings
-) -> tuple[NDArray, NDArray | None]:
-    """Video angles drift: when the wearer stands again later (the last standing phase >= ``min_standing_s``,
-    within ``max_drift_deg`` of the first), the pitch/roll difference between the two stances is drift; it is
-    removed along a straight line between them (held constant after). Returns the angles and the drift."""
+) -> list[tuple[float, NDArray]]:
+    """(mid time, pitch/roll of the stance minus the reference stance's) of every standing phase >=
+    ``min_standing_s`` whose stance is within ``max_drift_deg`` of the reference's: the same upright stance, so
+    the difference is the video's drift (a stance farther off is not taken for the same one)."""
     act = np.asarray(seg.activity)
     hop = float(seg.timeline_t_s[1] - seg.timeline_t_s[0]) if len(seg.timeline_t_s) > 1 else 0.1
-    runs = [(i0, i1) for i0, i1 in _runs(act == "standing") if (i1 - i0) * hop >= s.min_standing_s]
-    if not runs:
-        return a, None
-    i0, i1 = runs[-1]
-    t0, t1 = float(seg.timeline_t_s[i0]), float(seg.timeline_t_s[i1 - 1])
-    if t0 <= first[1]:
-        return a, None
     m0 = (t >= first[0]) & (t <= first[1])
-    m1 = (t >= t0) & (t <= t1)
-    if m0.sum() < 3 or m1.sum() < 3:
-        return a, None
-    d = np.median(a[m1][:, [0, 2]], axis=0) - np.median(a[m0][:, [0, 2]], axis=0)
-    if np.max(np.abs(d)) > s.max_drift_deg:
-        return a, None
-    ta, tb = 0.5 * (first[0] + first[1]), 0.5 * (t0 + t1)
-    w = np.clip((t - ta) / (tb - ta), 0.0, 1.0)
+    if m0.sum() < 3:
+        return []
+    base = np.median(a[m0][:, [0, 2]], axis=0)
+    out = [(0.5 * (first[0] + first[1]), np.zeros(2))]
+    for i0, i1 in _runs(act == "standing"):
+        if (i1 - i0) * hop < s.min_standing_s:
+            continue
+        t0, t1 = float(seg.timeline_t_s[i0]), float(seg.timeline_t_s[i1 - 1])
+        m = (t >= t0) & (t <= t1)
+        if m.sum() < 3 or (t0 <= first[1] and t1 >= first[0]):
+            continue
+        d = np.median(a[m][:, [0, 2]], axis=0) - base
+        if np.max(np.abs(d)) <= s.max_drift_deg:
+            out.append((0.5 * (t0 + t1), d))
+    return sorted(out, key=lambda v: v[0])
+
+
+def _reference_model(
+    t: NDArray, a: NDArray, seg: Segmentation, stand: tuple[float, float] | None, s: SessionSettings
+) -> tuple[NDArray, ReferenceUncertainty, int]:
+    """The video's pitch/roll drift at every sample and how uncertain it is after turns.
+
+    A video's orientation has no absolute reference: its error grows mostly where tracking degrades, in turns
+    (fast rotation, facades near the camera; 1-6 deg of pitch or roll across a 90-180 deg turn at 320x240). The
+    recording is cut at its turns into straight stretches. A standing phase re-references the stretch it lies
+    in (the stance is taken to be the reference stance, so their difference is drift): between two standing
+    phases of one stretch the drift is interpolated linearly in time, before the first and after the last it is
+    held. A stretch without a standing phase is reached from the nearest re-referenced stretches through n turns,
+    each of which may add up to ``turn_reference_deg``: from one side its drift is that side's, within
+    +-n x ``turn_reference_deg``; from both, the middle of the two intervals' overlap, within half of it.
+    Without any standing phase the first frame is the reference (assumed upright) for the first stretch only.
+    Returns the drift (N, 2), the uncertainty and how many standing phases re-referenced the angles."""
+    n = t.size
+    drift = np.zeros((n, 2))
+    unc = np.zeros((n, 2))
+    why = np.full(n, -1, dtype=np.int64)
+    anchors = _standing_anchors(t, a, seg, stand, s) if stand is not None else []
+    if not anchors and n:
+        anchors = [(float(t[0]), np.zeros(2))]
+    turns = sorted(seg.turns, key=lambda u: u.start_s)
+    mids = np.array([0.5 * (u.start_s + u.end_s) for u in turns])
+    stretch = np.searchsorted(mids, t)  # stretch k lies between turns k-1 and k
+    n_st = len(turns) + 1
+    by_stretch: dict[int, list[tuple[float, NDArray]]] = {}
+    for ta, d in anchors:
+        by_stretch.setdefault(int(np.searchsorted(mids, ta)), []).append((ta, d))
+    known = sorted(by_stretch)
+    reasons: list[str] = []
+    delta = s.turn_reference_deg
+    for k in range(n_st):
+        m = stretch == k
+        if not m.any():
+            continue
+        if k in by_stretch:
+            at = by_stretch[k]
+            ts = np.array([v[0] for v in at])
+            for j in range(2):
+                drift[m, j] = np.interp(t[m], ts, [v[1][j] for v in at])
+            continue
+        left = [j for j in known if j < k]
+        right = [j for j in known if j > k]
+        lo = np.full(2, -np.inf)
+        hi = np.full(2, np.inf)
+        via: list[float] = []
+        if left:
+            kl = left[-1]
+            dl = by_stretch[kl][-1][1]
+            lo, hi = np.maximum(lo, dl - math.sqrt(k - kl) * delta), np.minimum(hi, dl + math.sqrt(k - kl) * delta)
+            via += [turns[i].start_s for i in range(kl, k)]
+        if right:
+            kr = right[0]
+            dr = by_stretch[kr][0][1]
+            lo2, hi2 = dr - math.sqrt(kr - k) * delta, dr + math.sqrt(kr - k) * delta
+            if left and np.any(np.maximum(lo, lo2) > np.minimum(hi, hi2)):  # drifted beyond the bound: split
+                w = (k - left[-1]) / (kr - left[-1])
+                centre = (1 - w) * by_stretch[left[-1]][-1][1] + w * dr
+                lo, hi = centre - delta, centre + delta
+            else:
+                lo, hi = np.maximum(lo, lo2), np.minimum(hi, hi2)
+            via += [turns[i].start_s for i in range(k, kr)]
+        drift[m] = 0.5 * (lo + hi)
+        unc[m] = 0.5 * (hi - lo)
+        where = ", ".join(f"t={v:.1f} s" for v in sorted(via))
+        reasons.append(f"the video's upright reference is uncertain across the turn{'s' if len(via) > 1 else ''} "
+                       f"at {where} (no standing phase in this straight stretch to re-reference it; each turn may "
+                       f"move the video's pitch and roll by up to {delta:g} deg)")
+        why[m] = len(reasons) - 1
+    return drift, ReferenceUncertainty(unc, why, tuple(reasons)), len(anchors) - 1
+
+
+def _rereference(
+    t: NDArray, a: NDArray, seg: Segmentation, stand: tuple[float, float] | None, s: SessionSettings
+) -> tuple[NDArray, str, ReferenceUncertainty]:
+    """Video angles with the drift of :func:`_reference_model` removed, a note for the reference's source text,
+    and the uncertainty left."""
+    drift, unc, n_re = _reference_model(t, a, seg, stand, s)
     out = a.copy()
-    out[:, 0] -= w * d[0]
-    out[:, 2] -= w * d[1]
-    return out, d
+    out[:, 0] -= drift[:, 0]
+    out[:, 2] -= drift[:, 1]
+    note = ""
+    if n_re:
+        note = (f"; re-referenced at {n_re} later standing phase{'s' if n_re > 1 else ''} (drift up to "
+                f"{np.max(np.abs(drift[:, 0])):.1f} / {np.max(np.abs(drift[:, 1])):.1f} deg pitch / roll removed)")
+    if unc.reasons:
+        note += f"; uncertain in {len(unc.reasons)} straight stretch{'es' if len(unc.reasons) > 1 else ''} after turns"
+    return out, note, unc
 
 
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -424,14 +523,14 @@ def analyze_session(
         stand = None
     else:
         ref, ref_source, stand = _upright(t, a, seg, absd, s)
-    a, ref_out, ref_source = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s)
+    a, ref_out, ref_source, unc = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s)
     ref_zero = np.zeros(3)
     activity = _not_upright_is_unknown(np.asarray(seg.activity, dtype=object), seg.timeline_t_s, t, a, s)
     activity = _settle_timeline(activity, seg, s)
     pauses = _pause_intervals(activity, seg)
     seg = replace(seg, activity=tuple(str(v) for v in activity))
     seg_docs, bout_docs, weighted, label_time = _bouts(t, a, seg, sig, ref_zero, settings, base, s, no_yaw=no_yaw,
-                                                       pauses=pauses)
+                                                       pauses=pauses, unc=unc)
     walking_s = seg.walking_s
     cad = [(b.duration_s, b.cadence_spm) for b in seg.bouts if math.isfinite(b.cadence_spm)]
     cadence = (sum(w * c for w, c in cad) / sum(w for w, _ in cad)) if cad and sum(w for w, _ in cad) > 0 \
@@ -477,10 +576,11 @@ def analyze_session(
 def _heading_free(
     t: NDArray, a: NDArray, absd: NDArray | None, ref: NDArray, ref_source: str, stand: tuple[float, float] | None,
     seg: Segmentation, s: SessionSettings,
-) -> tuple[NDArray, NDArray, str]:
+) -> tuple[NDArray, NDArray, str, ReferenceUncertainty | None]:
     """Heading-free inclinations: gravity's pitch/roll with an IMU (``absd``, when mostly finite), else the tilt
-    from the upright pose (drift removed up to the last standing phase). Returns the angles, the upright
-    pitch/roll they are relative to, and the reference's source text."""
+    from the upright pose (re-referenced at later standing phases, :func:`_reference_model`). Returns the angles,
+    the upright pitch/roll they are relative to, the reference's source text and, for video, how uncertain the
+    reference is after turns."""
     if absd is not None:
         ok = np.isfinite(absd).all(axis=1)
         gp = np.interp(t, t[ok], absd[ok, 0])
@@ -491,21 +591,16 @@ def _heading_free(
             m = (t >= stand[0]) & (t <= stand[1])
             up_abs = np.array([np.median(gp[m]), np.median(gr[m])])
         a = slow_offset(t, a, np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]]))
-        return a, up_abs, ref_source
+        return a, up_abs, ref_source, None
     a = heading_free_angles(t, a, ref)
-    ref_out = ref[[0, 2]]
-    if stand is not None:
-        a, drift = _remove_drift(t, a, seg, stand, s)
-        if drift is not None:
-            ref_source += f"; drift {drift[0]:+.2f} / {drift[1]:+.2f} deg (pitch / roll) removed up to the last " \
-                          "standing phase"
-    return a, ref_out, ref_source
+    a, note, unc = _rereference(t, a, seg, stand, s)
+    return a, ref[[0, 2]], ref_source + note, unc
 
 
 def _bouts(
     t: NDArray, a: NDArray, seg: Segmentation, sig: TrunkSignals, ref_zero: NDArray, settings: IndicatorSettings,
     base: Mapping[str, Any] | None, s: SessionSettings, *, no_yaw: bool,
-    pauses: list[tuple[float, float]] | None = None,
+    pauses: list[tuple[float, float]] | None = None, unc: ReferenceUncertainty | None = None,
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]], list[tuple[float, Indicators]], dict[str, float]]:
     """Each walking bout cut into straight pieces (between turns and pauses) and posture segments (at change
     points): the segments' documents, the bouts' documents, the (duration, indicators) of every segment and the
@@ -534,11 +629,16 @@ def _bouts(
         inside = []
         for g in groups:
             if len(g) > 1:
-                cls = _pooled_classification([spans[i][:2] for i in g], [items[i][0] for i in g],
-                                             np.asarray(b.steps_s, dtype=float), seg.steady_steps_s, sig.kind, base)
-                for i in g:
-                    ind, doc = items[i]
-                    items[i] = (ind.with_classification(cls), {**doc, "label": cls.label, "reasons": list(cls.reasons)})
+                cls, pooled = _pooled_classification([spans[i][:2] for i in g], [items[i][0] for i in g],
+                                                     np.asarray(b.steps_s, dtype=float), seg.steady_steps_s, sig.kind,
+                                                     base)
+            else:
+                cls, pooled = items[g[0]][0].classification, items[g[0]][0].to_dict()
+            for i in g:
+                ind, doc = items[i]
+                # each stretch's own inclinations (with the pooled step evidence) against its own reference
+                own = _referenced(cls, {**pooled, "axes": doc["axes"]}, [spans[i][:2]], t, unc, base)
+                items[i] = (ind.with_classification(own), {**doc, "label": own.label, "reasons": list(own.reasons)})
             for i in g:
                 q0, q1, _ = spans[i]
                 ind, doc = items[i]
@@ -644,13 +744,14 @@ def _pooled_alternation(spans: list[tuple[float, float]], bout_steps: NDArray, s
 def _pooled_classification(
     spans: list[tuple[float, float]], inds: list[Indicators], bout_steps: NDArray, steady: NDArray, kind: str,
     base: Mapping[str, Any] | None,
-) -> Classification:
+) -> tuple[Classification, dict[str, Any]]:
     """One label for the straight stretches of one posture: the classifier on their duration-weighted
-    indicators, with the alternating-step evidence pooled (:func:`_pooled_alternation`, the step counts added)."""
+    indicators, with the alternating-step evidence pooled (:func:`_pooled_alternation`, the step counts added);
+    and the pooled indicators it classified."""
     from walkmon.gait.posture import classify
 
-    if kind == "acc":
-        return inds[0].classification  # accelerometer only: never a posture label (span_indicators says why)
+    if kind == "acc":  # accelerometer only: never a posture label (span_indicators says why)
+        return inds[0].classification, inds[0].to_dict()
     w = [q1 - q0 for q0, q1 in spans]
     axes = _weighted_axes(list(zip(w, inds, strict=True)))
     n_steps = 0.0
@@ -676,7 +777,45 @@ def _pooled_classification(
     cls = classify(doc, base)
     where = ", ".join(f"{q0:.1f}-{q1:.1f} s" for q0, q1 in spans)
     return Classification(cls.label, (*cls.reasons, f"one posture over {len(spans)} straight stretches of the bout "
-                                      f"({where}; the turns and pauses between them left out), labelled together"))
+                                      f"({where}; the turns and pauses between them left out), labelled together")), doc
+
+
+def _referenced(
+    cls: Classification, doc: Mapping[str, Any], spans: list[tuple[float, float]], t: NDArray,
+    unc: ReferenceUncertainty | None, base: Mapping[str, Any] | None,
+) -> Classification:
+    """``cls`` when it holds for every pitch/roll reference within the uncertainty the spans carry (the
+    classifier run with the inclinations and pitch extremums moved to the corners of +-``unc``), else
+    ``unclassified`` with the reason: a label that a drift of the reference could change is not given."""
+    from walkmon.gait.posture import classify
+
+    if unc is None or cls.label == "unclassified":
+        return cls
+    m = np.zeros(t.shape, bool)
+    for q0, q1 in spans:
+        m |= (t >= q0) & (t <= q1)
+    if not m.any():
+        return cls
+    u = unc.deg[m].max(axis=0)
+    if not np.any(u > 0):
+        return cls
+    seen = set()
+    for sp in (-1.0, 1.0):
+        for sr in (-1.0, 1.0):
+            axes = {k: dict(v) if isinstance(v, Mapping) else v for k, v in (doc.get("axes") or {}).items()}
+            for ax, du in (("pitch", sp * u[0]), ("roll", sr * u[1])):
+                for name in ("inclination_mean", "lmax_mean", "lmin_mean"):
+                    v = axes.get(ax, {}).get(name)
+                    if v is not None and math.isfinite(v):
+                        axes[ax][name] = v + du
+            seen.add(classify({**doc, "axes": axes}, base).label)
+    if seen == {cls.label}:
+        return cls
+    why = [unc.reasons[i] for i in sorted({int(v) for v in unc.why[m] if v >= 0})]
+    return Classification("unclassified", (
+        *why, f"{cls.label} at the measured inclinations, but a reference within +-{u[0]:.1f} / +-{u[1]:.1f} deg "
+        f"(pitch / roll) could make it {' or '.join(sorted(seen - {cls.label}))}: not labelled",
+        *cls.reasons))
 
 
 def _bout_doc(
