@@ -78,11 +78,6 @@ _SHUTTER_MIN_SKEW_PX = 0.1
 _SHUTTER_ITERATIONS = 1
 #: After a frame faster than max_ok_rate_deg_s, frames stay flagged until the rate falls below this fraction of it.
 _TURN_EXIT_FRACTION = 0.5
-#: A keyframe's correction of the orientation (window refinement, vertical lines) reaches the reported orientation
-#: at most this fast (deg/s): 0.1 deg a frame at 30 fps, a fifth of the 0.5 deg frame-to-frame target and about the
-#: tracking noise of one frame's step (0.5 px at a ~500 px focal length: 0.06 deg). Chosen a priori, not fitted.
-#: Applied in one frame, corrections of 0.5-0.6 deg made the largest frame-to-frame errors of walls (seeds 2, 4).
-_CORRECTION_RATE_DEG_S = 3.0
 #: ``min_feature_distance_px`` is given for a view this wide and scaled with the frame width.
 _REFERENCE_WIDTH_PX = 640.0
 
@@ -106,10 +101,6 @@ class FastEngine:
         self._win = (settings.klt_window_px, settings.klt_levels)
         self._criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
         self._orientation = np.eye(3)
-        # the reported orientation is self._offset @ self._orientation: a keyframe's correction of the orientation
-        # is taken up at _CORRECTION_RATE_DEG_S (see _new_keyframe, _reported)
-        self._offset = np.eye(3)
-        self._t_reported: float | None = None
         self._prev_small: NDArray[np.uint8] | None = None
         self._pts = np.zeros((0, 1, 2), np.float32)  # current track positions, tracking resolution
         self._kf_q = np.zeros((0, 3))  # the tracks' normalised homogeneous coordinates in the keyframe
@@ -241,14 +232,10 @@ class FastEngine:
 
     def _new_keyframe(self, small: NDArray[np.uint8]) -> None:
         """Make the current frame the keyframe (orientation refined over the window); top up the corners."""
-        chained = self._orientation
         if self.s.keyframe_window > 1:
             self._orientation = self._refined_keyframe_orientation()
         if self._vertical is not None:
             self._orientation = self._vertical.correct(small, self._orientation, self._t_s, self._normalized, self._sx)
-        if self._orientation is not chained:
-            # the estimate goes on from the corrected orientation; the reported one reaches it gradually
-            self._offset = self._offset @ chained @ self._orientation.T
         new = self._detect(small, self._pts)
         new_ids = np.arange(self._next_id, self._next_id + new.shape[0], dtype=np.int64)
         self._next_id += new.shape[0]
@@ -415,28 +402,8 @@ class FastEngine:
         # single-frame DLT is too noisy (night: 2.4 deg frame-to-frame jumps, raw yaw 2.2 -> 6.9 deg).
         return max(gap, hom.ambiguity_deg) > threshold
 
-    def _reported(self, t_s: float, *, flagged: bool = False) -> NDArray[np.float64]:
-        """The orientation to report at ``t_s``: the estimate, with the part of its keyframe corrections not yet
-        taken up (self._offset) turned back by at most _CORRECTION_RATE_DEG_S since the last report.
-
-        Sliding-window refinements and vertical-line corrections move a keyframe's orientation by up to ~0.6 deg
-        at once (wall seeds 2, 4: those frames were the clips' largest frame-to-frame errors, 0.54 and 0.62 deg,
-        while standing still); the estimate itself goes on from the corrected orientation at once, so only the
-        report is smoothed, as a complementary filter blends an absolute reference in. A ``flagged`` frame (not
-        ok) takes what is left at once: it claims no continuity, and a correction carried past it into the ok
-        frames after it would be error they report (wall seed 4: 42 ok frames more than 1 deg off since the
-        flag)."""
-        if flagged:
-            self._offset = np.eye(3)
-        elif self._t_reported is not None and not np.array_equal(self._offset, np.eye(3)):
-            dt = min(max(t_s - self._t_reported, 0.0), 1.0)
-            self._offset = geo.rotation_towards_identity(self._offset, _CORRECTION_RATE_DEG_S * dt)
-        self._t_reported = t_s
-        reported: NDArray[np.float64] = self._offset @ self._orientation
-        return reported
-
     def _hold(self, t_s: float, status: EstimateStatus, reason: str, n_tracks: int = 0) -> RotationEstimate:
-        return make_estimate(t_s, self._reported(t_s, flagged=True), n_inliers=0, model="hold", status=status, n_tracks=n_tracks,
+        return make_estimate(t_s, self._orientation, n_inliers=0, model="hold", status=status, n_tracks=n_tracks,
                              reason=reason)
 
     # ----------------------------------------------------------------------------------------------------------
@@ -483,7 +450,7 @@ class FastEngine:
             # the flag changes what is claimed, never the orientation
             status, reason = EstimateStatus.LOW_QUALITY, "fast_rotation"
         return make_estimate(
-            t_s, self._reported(t_s, flagged=status is not EstimateStatus.OK), n_inliers=n_inliers, model=fit.model, status=status, n_tracks=n,
+            t_s, self._orientation, n_inliers=n_inliers, model=fit.model, status=status, n_tracks=n,
             residual_px=float(np.median(fit.residuals_px)), keyframe=new_kf, reason=reason,
         )
 
@@ -515,8 +482,7 @@ class FastEngine:
         self._prev_small = small
         status = EstimateStatus.FIRST_FRAME if first else EstimateStatus.OK
         return make_estimate(
-            t_s, self._reported(t_s, flagged=first), n_inliers=self._pts.shape[0],
-            model="identity" if first else "hold",
+            t_s, self._orientation, n_inliers=self._pts.shape[0], model="identity" if first else "hold",
             status=status, n_tracks=self._pts.shape[0], keyframe=True,
         )
 

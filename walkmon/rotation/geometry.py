@@ -48,7 +48,6 @@ __all__ = [
     "rotation_from_rotvec",
     "rotation_only_fit",
     "rotation_only_residuals_px",
-    "rotation_towards_identity",
     "sampson_residuals_px",
     "select_nearest_rotation",
 ]
@@ -87,18 +86,6 @@ def rotation_from_rotvec(rotvec: ArrayLike) -> NDArray[np.float64]:
         return np.eye(3) + _skew3(v)
     k = _skew3(v / theta)
     return np.eye(3) + math.sin(theta) * k + (1.0 - math.cos(theta)) * (k @ k)
-
-
-def rotation_towards_identity(R: ArrayLike, step_deg: float) -> NDArray[np.float64]:
-    """``R`` turned back towards the identity about its own axis by at most ``step_deg`` (identity within it)."""
-    R = np.asarray(R, dtype=float)
-    angle_deg = rotation_angle_deg(R)
-    if angle_deg <= step_deg:
-        return np.eye(3)
-    # the axis from the antisymmetric part (the corrections this serves are far from 180 deg, where it vanishes)
-    axis = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    axis /= max(float(np.linalg.norm(axis)), 1e-12)
-    return rotation_from_rotvec(axis * math.radians(angle_deg - step_deg))
 
 
 def rotation_angle_deg(R: ArrayLike) -> float:
