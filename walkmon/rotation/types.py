@@ -161,6 +161,8 @@ FLAG_REASONS = {
     "step_inconsistent": "the fit jumps away from the frame-to-frame tracking of the same points",
     "translation_ambiguity": "looking sideways to the walker's heading, a translation and a rotation fit alike",
     "fast_rotation": "turning faster than max_ok_rate_deg_s, or since, until the rate halved: tracking and blur degrade",
+    "keyframe_correction": "a new keyframe's refinement (older keyframes, vertical lines) moved the orientation by"
+    " more than 0.5 deg at once",
     "few_inliers": "fewer inliers than min_inliers: held",
     "implausible_step": "a frame-to-frame change above max_frame_rotation_deg: held",
     "tracking_lost": "fewer tracked points than min_inliers: held, tracking restarts",
