@@ -428,7 +428,7 @@ class FastEngine:
         n = self._track(small)
         if n < self.s.min_inliers:
             # Lost track (cap removed onto a new view, sudden blur): restart from here, holding orientation.
-            self._restart(small)
+            self._restart_held(small, t_s)
             return self._hold(t_s, EstimateStatus.TOO_FEW_FEATURES, "tracking_lost", n)
         fit = self._fit(t_s, n)
         if self._readout_s > 0:
@@ -441,7 +441,7 @@ class FastEngine:
         # onto a repeated pattern (facade windows) from a wrong start moved coherently (turns seed 4: 11 deg)
         jerk = self._last_step is not None and geo.rotation_angle_deg(self._last_step.T @ step) > _MAX_STEP_CHANGE_DEG
         if n_inliers < self.s.min_inliers or step_deg > self.s.max_frame_rotation_deg or jerk:
-            self._restart(small)
+            self._restart_held(small, t_s)
             why = "few_inliers" if n_inliers < self.s.min_inliers else "implausible_step"
             return self._hold(t_s, EstimateStatus.LOW_QUALITY, why, n)
         dt = t_s - self._t_prev if self._t_prev is not None else 0.0
@@ -505,6 +505,17 @@ class FastEngine:
         """Drop every track and start a new keyframe on ``small``."""
         self._lose_tracks()
         self._new_keyframe(small)
+
+    def _restart_held(self, small: NDArray[np.uint8], t_s: float) -> None:
+        """Restart the tracks on a frame whose orientation is held (tracking lost, few inliers, implausible step).
+
+        The next frame is fitted against this one, so its change spans one frame and its rate (which decides
+        fast_rotation, and the rolling-shutter correction's) is measured from this frame's time. From the last
+        accepted frame's time it read half the rate: a 93 deg/s turn passed as ok just after a held frame, 0.9
+        deg off in that frame (turns seed 4)."""
+        self._restart(small)
+        if self._t_prev is not None:
+            self._t_prev = t_s
 
     def _track(self, small: NDArray[np.uint8]) -> int:
         """KLT-track the previous frame's points into ``small``, keep those tracked inside the image; their count."""
