@@ -196,3 +196,21 @@ def test_after_an_unreferenced_turn_only_labels_that_no_drift_within_the_bound_c
         assert after["label"] == "unclassified"
     else:  # a left tilt of ~10 deg stays below -3 deg within +-4 deg: still left_shoulder_down
         assert after["label"] == "left_shoulder_down"
+
+
+def test_a_short_pause_inside_a_bout_re_references_the_video_after_a_turn() -> None:
+    """A pause shorter than a bout break (< 3 s: the bout goes on, the activity reads walking) is still standing:
+    the stance it holds re-references the straight stretch it lies in, as a long standing phase would."""
+    t, a, model = _drifted_after_u_turn("normal", 26.0)
+    at, pause_s = 18.0, 1.5
+    i = int(np.searchsorted(t, at))
+    held = np.repeat(a[i : i + 1], int(round(pause_s * FPS)), axis=0)  # standing still in the walking stance
+    t2 = np.concatenate([t[:i], at + np.arange(held.shape[0]) / FPS, t[i:] + pause_s])
+    a2 = np.concatenate([a[:i], held, a[i:]])
+    doc = analyze_session(t2, a2).indicators.to_dict()
+    assert len(doc["bouts"]) == 1  # the pause does not end the bout
+    after = [s for s in doc["segments"] if s["start_s"] >= 14.5]
+    assert after and all(s["label"] == "normal" for s in after)
+    for s in after:  # the turn's 5 deg roll error is gone: the truth's roll offset
+        assert s["axes"]["roll"]["inclination_mean"] == pytest.approx(model.segments[0].roll_offset_deg, abs=1.0)
+    assert "re-referenced at 1 later standing phase" in doc["upright_reference"]["source"]
