@@ -231,3 +231,19 @@ def test_a_still_phase_bent_down_after_the_turn_is_no_re_reference() -> None:
     assert "re-referenced" not in doc["upright_reference"]["source"]
     after = [s for s in doc["segments"] if s["start_s"] >= 14.5]
     assert after and all(s["label"] == "unclassified" for s in after)
+
+
+@pytest.mark.parametrize("walk", ["left_shoulder_down", "bend", "normal"])
+def test_a_short_video_walk_counts_its_detected_steps_for_the_label(walk: str) -> None:
+    """Video: a segment's step count for the classifier's 8-step minimum counts its detected steps, as with an
+    IMU, not only its complete pitch cycles (two fewer: the edge cycles are cut): a 6.5 s walk of 8-10 true steps
+    is labelled, and its step count is the truth's."""
+    model = GaitModel(f"{walk}:6.5", seed=1)
+    t = np.arange(0.0, model.duration_s, 1 / FPS)
+    doc = analyze_session(t, model.truth_angles_deg(t)).indicators.to_dict()
+    (seg,) = doc["segments"]
+    steps, _ = model.step_times_s()
+    true_n = int(np.sum((steps >= seg["start_s"] - 0.3) & (steps <= seg["end_s"] + 0.3)))
+    assert true_n >= 8
+    assert seg["asymmetry"]["n_steps"] == pytest.approx(true_n, abs=1)
+    assert seg["label"] == walk

@@ -464,6 +464,11 @@ def span_indicators(
         asym["step_time_n_pairs"] = alt["n_pairs"]
         asym["step_time_asymmetry_pct"] = 100.0 * 2 * (r - 1) / (r + 1) if math.isfinite(r) else float("nan")
         asym["n_steps"] = float(st.size)
+    if kind == "angles":
+        # steps seen: the pitch cycles complete inside the span miss its edge cycles, the step detector misses
+        # steps within half its window of a recording's edges (a live window): both are lower bounds
+        cycles = asym.get("n_steps")
+        asym["n_steps"] = max(float(cycles) if cycles is not None and math.isfinite(cycles) else 0.0, float(st.size))
     ind = replace(ind, cadence_spm=float(cadence), asymmetry=asym)
     if kind == "acc":
         # An accelerometer alone sees no turns (their centripetal acceleration tilts the low-passed "gravity") and
