@@ -196,3 +196,54 @@ def test_after_an_unreferenced_turn_only_labels_that_no_drift_within_the_bound_c
         assert after["label"] == "unclassified"
     else:  # a left tilt of ~10 deg stays below -3 deg within +-4 deg: still left_shoulder_down
         assert after["label"] == "left_shoulder_down"
+
+
+def _paused(t: np.ndarray, a: np.ndarray, at: float, pause_s: float, pitch_deg: float = 0.0):
+    """``t``, ``a`` with the camera held still for ``pause_s`` at ``at`` (the stance of that moment, its pitch
+    moved by ``pitch_deg``: bent forward when negative), the rest of the walk after it."""
+    i = int(np.searchsorted(t, at))
+    held = np.repeat(a[i : i + 1], int(round(pause_s * FPS)), axis=0)
+    held[:, 0] += pitch_deg
+    return (np.concatenate([t[:i], at + np.arange(held.shape[0]) / FPS, t[i:] + pause_s]),
+            np.concatenate([a[:i], held, a[i:]]))
+
+
+def test_a_short_pause_inside_a_bout_re_references_the_video_after_a_turn() -> None:
+    """A pause shorter than a bout break (< 3 s: the bout goes on, the activity reads walking) is still standing:
+    the stance it holds re-references the straight stretch it lies in, as a long standing phase would."""
+    t, a, model = _drifted_after_u_turn("normal", 26.0)
+    t2, a2 = _paused(t, a, 18.0, 1.5)  # standing still in the (normal, upright) walking stance
+    doc = analyze_session(t2, a2).indicators.to_dict()
+    assert len(doc["bouts"]) == 1  # the pause does not end the bout
+    after = [s for s in doc["segments"] if s["start_s"] >= 14.5]
+    assert after and all(s["label"] == "normal" for s in after)
+    for s in after:  # the turn's 5 deg roll error is gone: the truth's roll offset
+        assert s["axes"]["roll"]["inclination_mean"] == pytest.approx(model.segments[0].roll_offset_deg, abs=1.0)
+    assert "re-referenced at 1 later standing phase" in doc["upright_reference"]["source"]
+
+
+def test_a_still_phase_bent_down_after_the_turn_is_no_re_reference() -> None:
+    """Still, but 15 deg from the upright stance (bent down to look at something): not the same stance, so its
+    angles are not taken for the video's drift and the stretch stays without a trusted reference."""
+    t, a, _ = _drifted_after_u_turn("normal", 26.0)
+    t2, a2 = _paused(t, a, 18.0, 1.5, pitch_deg=-15.0)
+    doc = analyze_session(t2, a2).indicators.to_dict()
+    assert "re-referenced" not in doc["upright_reference"]["source"]
+    after = [s for s in doc["segments"] if s["start_s"] >= 14.5]
+    assert after and all(s["label"] == "unclassified" for s in after)
+
+
+@pytest.mark.parametrize("walk", ["left_shoulder_down", "bend", "normal"])
+def test_a_short_video_walk_counts_its_detected_steps_for_the_label(walk: str) -> None:
+    """Video: a segment's step count for the classifier's 8-step minimum counts its detected steps, as with an
+    IMU, not only its complete pitch cycles (two fewer: the edge cycles are cut): a 6.5 s walk of 8-10 true steps
+    is labelled, and its step count is the truth's."""
+    model = GaitModel(f"{walk}:6.5", seed=1)
+    t = np.arange(0.0, model.duration_s, 1 / FPS)
+    doc = analyze_session(t, model.truth_angles_deg(t)).indicators.to_dict()
+    (seg,) = doc["segments"]
+    steps, _ = model.step_times_s()
+    true_n = int(np.sum((steps >= seg["start_s"] - 0.3) & (steps <= seg["end_s"] + 0.3)))
+    assert true_n >= 8
+    assert seg["asymmetry"]["n_steps"] == pytest.approx(true_n, abs=1)
+    assert seg["label"] == walk

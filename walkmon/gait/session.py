@@ -79,6 +79,7 @@ class SessionSettings:
     transition_s: float = 1.5
     pause_factor: float = 1.3
     turn_reference_deg: float = 4.0
+    min_anchor_s: float = 0.5  # a still phase this long re-references the video's drift (as a pause in a bout)
 
 
 DEFAULT_SESSION_SETTINGS = SessionSettings()
@@ -200,18 +201,32 @@ class ReferenceUncertainty:
 def _standing_anchors(
     t: NDArray, a: NDArray, seg: Segmentation, first: tuple[float, float], s: SessionSettings
 ) -> list[tuple[float, NDArray]]:
-    """(mid time, pitch/roll of the stance minus the reference stance's) of every standing phase >=
-    ``min_standing_s`` whose stance is within ``max_drift_deg`` of the reference's: the same upright stance, so
-    the difference is the video's drift (a stance farther off is not taken for the same one)."""
+    """(mid time, pitch/roll of the stance minus the reference stance's) of every still phase >= ``min_anchor_s``
+    (outside turns) whose stance is within ``max_drift_deg`` of the reference's: the same upright stance, so the
+    difference is the video's drift (a stance farther off is not taken for the same one).
+
+    Any still phase, not only the ``standing`` activity's >= ``min_standing_s``: a pause shorter than a bout
+    break (< 3 s) lies inside its bout, where the activity says walking, and the still part of a 1.5-2.5 s pause
+    (the closing and first steps move the trunk) lasts 0.5-1.5 s; the stance's angles need no more (the video's
+    noise while still is ~0.01 deg). On the simulator's unkind sessions many stretches after a turn that were left
+    without a reference had such a pause."""
     act = np.asarray(seg.activity)
-    hop = float(seg.timeline_t_s[1] - seg.timeline_t_s[0]) if len(seg.timeline_t_s) > 1 else 0.1
+    grid = np.asarray(seg.timeline_t_s, dtype=float)
+    hop = float(grid[1] - grid[0]) if grid.size > 1 else 0.1
     m0 = (t >= first[0]) & (t <= first[1])
     if m0.sum() < 3:
         return []
     base = np.median(a[m0][:, [0, 2]], axis=0)
     out = [(0.5 * (first[0] + first[1]), np.zeros(2))]
-    for i0, i1 in _runs(act == "standing"):
-        if (i1 - i0) * hop < s.min_standing_s:
+    # the trunk still, wherever: a pause shorter than a bout break (< 3 s) lies inside a bout, where the activity
+    # says walking; not in a turn
+    if len(seg.still) == grid.size:
+        still = np.asarray(seg.still, dtype=bool) & (act != "turning")
+        min_s = s.min_anchor_s
+    else:
+        still, min_s = act == "standing", s.min_standing_s
+    for i0, i1 in _runs(still):
+        if (i1 - i0) * hop < min_s:
             continue
         t0, t1 = float(seg.timeline_t_s[i0]), float(seg.timeline_t_s[i1 - 1])
         m = (t >= t0) & (t <= t1)
@@ -449,6 +464,11 @@ def span_indicators(
         asym["step_time_n_pairs"] = alt["n_pairs"]
         asym["step_time_asymmetry_pct"] = 100.0 * 2 * (r - 1) / (r + 1) if math.isfinite(r) else float("nan")
         asym["n_steps"] = float(st.size)
+    if kind == "angles":
+        # steps seen: the pitch cycles complete inside the span miss its edge cycles, the step detector misses
+        # steps within half its window of a recording's edges (a live window): both are lower bounds
+        cycles = asym.get("n_steps")
+        asym["n_steps"] = max(float(cycles) if cycles is not None and math.isfinite(cycles) else 0.0, float(st.size))
     ind = replace(ind, cadence_spm=float(cadence), asymmetry=asym)
     if kind == "acc":
         # An accelerometer alone sees no turns (their centripetal acceleration tilts the low-passed "gravity") and
