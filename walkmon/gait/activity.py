@@ -24,8 +24,10 @@ Processing (:func:`segment`):
    to its last step; leading/trailing steps weaker than ``weak_step_fraction`` x the bout's median step amplitude
    (a weight shift before the first step, sway after the last) and a first/last step interval shorter than
    0.6 x the bout's median are gait initiation/termination, not steps, and are dropped.
-4. **Cadence per bout** from the steps: 60 / mean step duration, strides spanning a pause (above
-   ``pause_factor`` x the median stride) or hurried (below the median / ``hurried_factor``) left out; the spectral peak of the bout is kept as a cross-check.
+4. **Cadence per bout** from the steps: the mean of 120 / stride duration after mending missed steps (an
+   interval ~2x the median step) and extra ones (two short intervals summing to one), which turns and slow
+   walking produce; strides spanning a pause (above ``pause_factor`` x the median stride) or hurried (below the
+   median / ``hurried_factor``) left out; the spectral peak of the bout is kept as a cross-check.
 5. **Turns** (El-Gohary et al. 2013, Sensors 14(1) 356-369; also mobgap's ``TdElGohary``): the heading rate
    low-passed at 1.5 Hz; a turn is a run above ``turn_edge_deg_s`` (5 deg/s) that peaks above
    ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
@@ -57,6 +59,8 @@ __all__ = [
     "TrunkSignals",
     "Turn",
     "bouts_from_steps",
+    "cadence_from_steps",
+    "corrected_step_times",
     "detect_steps",
     "detect_turns",
     "gravity_direction",
@@ -88,6 +92,9 @@ class ActivitySettings:
     min_steps: int = 4
     pause_factor: float = 1.3
     hurried_factor: float = 1.6
+    missed_step_ratio: tuple[float, float] = (1.6, 2.5)  # an interval this many median steps long: one step missed
+    ordinary_step_ratio: float = 1.4  # neighbours of a missed step are shorter than this x the median
+    extra_step_fraction: float = 0.7  # two intervals each shorter than this x the median, summing to one: one extra
     turn_edge_deg_s: float = 5.0
     turn_peak_deg_s: float = 15.0
     turn_min_deg: float = 45.0
@@ -105,6 +112,11 @@ class ActivitySettings:
             if not (math.isfinite(v) and v > 0):
                 msg = f"activity setting {name} must be a finite number > 0, got {v}"
                 raise InvalidInputError(msg)
+        lo, hi = self.missed_step_ratio
+        if not (1.0 < lo < hi) or not (0.0 < self.extra_step_fraction < 1.0):
+            msg = (f"missed_step_ratio must be 1 < low < high and extra_step_fraction in (0, 1), got "
+                   f"{self.missed_step_ratio}, {self.extra_step_fraction}")
+            raise InvalidInputError(msg)
         if int(self.min_steps) < 2:
             msg = f"min_steps must be >= 2, got {self.min_steps}"
             raise InvalidInputError(msg)
@@ -456,17 +468,61 @@ def _trim_edges(g: NDArray[np.float64]) -> NDArray[np.float64]:
     return g
 
 
+def corrected_step_times(steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> NDArray[np.float64]:
+    """Step durations (s) of a bout with missed and extra steps accounted for.
+
+    In turns and slow, shuffling walking the trunk's vertical acceleration loses a heel strike now and then
+    (an interval about twice its neighbours) or shows two peaks for one (two short intervals summing to about
+    one). Against the bout's median step duration ``m``: an interval of ``missed_step_ratio`` x ``m`` (1.6-2.5)
+    counts as two steps of half its length when its neighbouring intervals are each one step (shorter than
+    ``ordinary_step_ratio`` x ``m``) or two (missed steps come in runs in turns): a neighbour of neither length
+    means no steady rhythm there (standing up, a pause); two consecutive intervals both shorter than ``extra_step_fraction``
+    x ``m`` whose sum lies within 0.7-1.3 x ``m`` count as one step. Longer gaps (pauses) are kept as they are.
+    The idea follows mobgap's ``CadFromIc`` (Mobilise-D: step times cleaned of outliers before cadence, a
+    Hampel filter there); here the outliers are mended as the missed/extra steps they are, which keeps the step
+    count consistent. Needs >= 3 intervals (fewer: the raw durations).
+    """
+    d = np.diff(np.asarray(steps_s, dtype=float))
+    if d.size < 3:
+        return d
+    m = float(np.median(d))
+    lo, hi = settings.missed_step_ratio
+    f = settings.extra_step_fraction
+    out: list[float] = []
+    i = 0
+    while i < d.size:
+        if (i + 1 < d.size and d[i] < f * m and d[i + 1] < f * m and 0.7 * m <= d[i] + d[i + 1] <= 1.3 * m):
+            out.append(float(d[i] + d[i + 1]))
+            i += 2
+            continue
+        # a missed step lies among steps: its neighbours are one step long, or two (missed steps come in runs
+        # in turns); a neighbour of neither length means no steady rhythm there (standing up, a pause)
+        if lo * m <= d[i] <= hi * m and all(_one_or_two_steps(v / m, settings) for v in d[max(0, i - 1) : i + 2]):
+            out.extend([0.5 * float(d[i])] * 2)
+        else:
+            out.append(float(d[i]))
+        i += 1
+    return np.asarray(out, dtype=float)
+
+
+def _one_or_two_steps(ratio: float, s: ActivitySettings) -> bool:
+    """An interval of ``ratio`` median steps is one ordinary step or two (one missed)."""
+    return ratio < s.ordinary_step_ratio or s.missed_step_ratio[0] <= ratio <= s.missed_step_ratio[1]
+
+
 def cadence_from_steps(steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> float:
     """Cadence of a bout as Mobilise-D reports it: the mean over strides (two consecutive steps) of
-    120 / stride duration, strides spanning a pause (longer than ``pause_factor`` x the median stride) left
-    out, as are strides shorter than the median / ``hurried_factor`` (a hurried first or last stride of gait
-    initiation/termination). Falls back to 60 / step duration with fewer than 3 steps."""
+    120 / stride duration, with missed and extra steps mended first (:func:`corrected_step_times`), strides
+    spanning a pause (longer than ``pause_factor`` x the median stride) left out, as are strides shorter than the
+    median / ``hurried_factor`` (a hurried first or last stride of gait initiation/termination). Falls back to
+    60 / step duration with fewer than 3 steps."""
     st = np.asarray(steps_s, dtype=float)
     if st.size < 2:
         return float("nan")
-    if st.size < 3:
-        return float(60.0 / (st[1] - st[0]))
-    stride = st[2:] - st[:-2]
+    d = corrected_step_times(st, settings)
+    if d.size < 2:
+        return float(60.0 / d[0])
+    stride = d[1:] + d[:-1]
     med = np.median(stride)
     stride = stride[(stride <= settings.pause_factor * med) & (stride >= med / settings.hurried_factor)]
     return float(np.mean(120.0 / stride)) if stride.size else float("nan")
