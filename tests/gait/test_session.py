@@ -247,3 +247,42 @@ def test_a_short_video_walk_counts_its_detected_steps_for_the_label(walk: str) -
     assert true_n >= 8
     assert seg["asymmetry"]["n_steps"] == pytest.approx(true_n, abs=1)
     assert seg["label"] == walk
+
+
+def _mid_walk(model: GaitModel, t0: float, t1: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Time, start-relative angles and true trunk pitch/roll (gravity) of the model's walk between t0 and t1."""
+    t = np.arange(0.0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t)
+    keep = (t >= t0) & (t <= t1)
+    c = rotation_from_angles_deg(a[keep, 0], a[keep, 1], a[keep, 2])
+    rel = angles_deg_from_rotation(np.einsum("ji,njk->nik", c[0], c))
+    return t[keep] - t0, rel, a[keep][:, [0, 2]]
+
+
+def test_an_imu_tilted_on_the_trunk_gives_no_bend_label_without_a_standing_phase() -> None:
+    # A healthy upright walk, recorded from mid-walk to mid-walk (no standing phase anywhere) by a sensor that
+    # sits 12 deg pitched down on the trunk (a lower-back sensor on the pelvis, a camera hanging off its strap):
+    # gravity reads the trunk 12 deg bent. Without a standing phase or baseline that tilt is unknown, so neither
+    # bend (the measured pitch) nor normal (the truth) may be claimed: unclassified, with the reason.
+    model = GaitModel("normal", 30.0, seed=11)
+    t, rel, truth = _mid_walk(model, 4.0, 28.0)
+    tilted = truth + np.array([-12.0, 0.0])
+    doc = analyze_session(t, rel, abs_angles_deg=tilted).indicators.to_dict()
+    assert doc["upright_reference"]["source"].startswith("gravity")
+    assert doc["walking_s"] > 15.0
+    labels = {s["label"] for s in doc["segments"]}
+    assert labels == {"unclassified"}, labels
+    assert any("tilt on the trunk" in r for s in doc["segments"] for r in s["reasons"])
+    assert doc["summary"]["dominant_label"] != "bend"
+
+
+def test_a_standing_phase_measures_the_sensors_tilt_on_the_trunk() -> None:
+    # The same tilted sensor with the walk's standing start and end: the standing phase is the reference, the
+    # tilt cancels and the walk is labelled what it truly is.
+    model = GaitModel("normal", 24.0, seed=11)
+    t = np.arange(0.0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t)
+    doc = analyze_session(t, a, abs_angles_deg=a[:, [0, 2]] + np.array([-12.0, 0.0])).indicators.to_dict()
+    assert doc["upright_reference"]["source"].startswith("first standing phase")
+    assert doc["classification"]["label"] == "normal"
+    assert doc["axes"]["pitch"]["inclination_mean"] == pytest.approx(0.0, abs=1.5)

@@ -80,6 +80,12 @@ class SessionSettings:
     pause_factor: float = 1.3
     turn_reference_deg: float = 4.0
     min_anchor_s: float = 0.5  # a still phase this long re-references the video's drift (as a pause in a bout)
+    #: How far a body-worn sensor's tilt on the trunk may be from level when nothing measured it (no standing
+    #: phase, no baseline, no live calibration): gravity is then the reference with the sensor assumed level, and
+    #: a label only given when it holds for any mounting tilt within this. Set a priori: a neck-hung camera hangs
+    #: at whatever angle its strap gives, and the lower-back sensors of the shared Mobilise-D walks read 9-18 deg
+    #: of pitch from gravity while their wearers walk upright (the bend threshold is -8 deg).
+    mount_tilt_deg: float = 20.0
 
 
 DEFAULT_SESSION_SETTINGS = SessionSettings()
@@ -309,6 +315,15 @@ def _reference_model(
                        f"move the video's pitch and roll by up to {delta:g} deg)")
         why[m] = len(reasons) - 1
     return drift, ReferenceUncertainty(unc, why, tuple(reasons)), len(anchors) - 1
+
+
+def _mount_uncertainty(t: NDArray, deg: float) -> ReferenceUncertainty:
+    """The uncertainty of gravity as the upright reference when the sensor is only assumed level: its tilt on
+    the trunk, unknown within +-``deg`` in pitch and roll at every sample."""
+    return ReferenceUncertainty(np.full((t.size, 2), float(deg)), np.zeros(t.size, dtype=np.int64), (
+        f"no standing phase and no baseline: gravity is the upright reference with the sensor assumed level, "
+        f"and its tilt on the trunk (up to {deg:g} deg) is unknown; stand still for 2 s during the recording, "
+        f"or record a baseline, to measure it",))
 
 
 def _rereference(
@@ -544,6 +559,10 @@ def analyze_session(
     else:
         ref, ref_source, stand = _upright(t, a, seg, absd, s)
     a, ref_out, ref_source, unc = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s)
+    if unc is None and has_abs and stand is None and reference_deg is None and base is None \
+            and s.mount_tilt_deg > 0:
+        unc = _mount_uncertainty(t, s.mount_tilt_deg)
+        ref_source += f"; labels given only where they hold for any sensor tilt within +-{s.mount_tilt_deg:g} deg"
     ref_zero = np.zeros(3)
     activity = _not_upright_is_unknown(np.asarray(seg.activity, dtype=object), seg.timeline_t_s, t, a, s)
     activity = _settle_timeline(activity, seg, s)
