@@ -423,7 +423,7 @@ def bouts_from_steps(
         g = _trim_edges(g)
         if g.size < settings.min_steps:
             continue
-        out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence_from_steps(g, settings),
+        out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence_from_steps(g, settings, mend=sig is None or sig.kind != "angles"),
                         _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
     return tuple(out)
 
@@ -510,16 +510,21 @@ def _one_or_two_steps(ratio: float, s: ActivitySettings) -> bool:
     return ratio < s.ordinary_step_ratio or s.missed_step_ratio[0] <= ratio <= s.missed_step_ratio[1]
 
 
-def cadence_from_steps(steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> float:
+def cadence_from_steps(
+    steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS, *, mend: bool = True
+) -> float:
     """Cadence of a bout as Mobilise-D reports it: the mean over strides (two consecutive steps) of
     120 / stride duration, with missed and extra steps mended first (:func:`corrected_step_times`), strides
     spanning a pause (longer than ``pause_factor`` x the median stride) left out, as are strides shorter than the
     median / ``hurried_factor`` (a hurried first or last stride of gait initiation/termination). Falls back to
-    60 / step duration with fewer than 3 steps."""
+    60 / step duration with fewer than 3 steps. ``mend=False`` leaves the step times as detected: the mending
+    was chosen for heel strikes in trunk acceleration; the video's pitch maxima (steps from angles) are not
+    heel strikes, and on the simulator's unkind video sessions mending them made bout cadence worse (within 1 %
+    of the true cadence: 68 -> 60 % of bouts)."""
     st = np.asarray(steps_s, dtype=float)
     if st.size < 2:
         return float("nan")
-    d = corrected_step_times(st, settings)
+    d = corrected_step_times(st, settings) if mend else np.diff(st)
     if d.size < 2:
         return float(60.0 / d[0])
     stride = d[1:] + d[:-1]

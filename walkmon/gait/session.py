@@ -468,7 +468,7 @@ def span_indicators(
     ind = analyze_gait(t[m], a[m], replace(settings, find_standing=False, min_walking_s=2.0),
                        reference_deg=ref).indicators
     spectral = ind.cadence_spm
-    cadence = cadence_from_steps(st) if st.size >= 3 else spectral
+    cadence = cadence_from_steps(st, mend=kind != "angles") if st.size >= 3 else spectral
     asym = dict(ind.asymmetry)
     if kind != "angles":  # detected steps of the IMU: their alternation is the better evidence
         steady = st if steady_steps is None else steady_steps[(steady_steps >= t0) & (steady_steps <= t1)]
