@@ -286,3 +286,15 @@ def test_a_standing_phase_measures_the_sensors_tilt_on_the_trunk() -> None:
     assert doc["upright_reference"]["source"].startswith("first standing phase")
     assert doc["classification"]["label"] == "normal"
     assert doc["axes"]["pitch"]["inclination_mean"] == pytest.approx(0.0, abs=1.5)
+
+
+def test_a_pause_mid_walk_measures_the_sensors_tilt_without_a_standing_phase() -> None:
+    # Mid-walk to mid-walk with one 2 s pause, the sensor 12 deg pitched on the trunk: the still part of the
+    # pause (shorter than a standing phase) is the wearer's upright stance, the tilt cancels and the walk is
+    # labelled what it truly is.
+    model = GaitModel("normal:12,pause:2,normal:12", seed=11)
+    t, rel, truth = _mid_walk(model, 4.0, model.duration_s - 4.0)
+    doc = analyze_session(t, rel, abs_angles_deg=truth + np.array([-12.0, 0.0])).indicators.to_dict()
+    assert doc["upright_reference"]["source"].startswith("first still pause")
+    assert {s["label"] for s in doc["segments"]} == {"normal"}
+    assert doc["axes"]["pitch"]["inclination_mean"] == pytest.approx(0.0, abs=1.5)

@@ -171,8 +171,17 @@ def _upright(
         in_bouts |= (t >= b.start_s) & (t <= b.end_s)
     ok = in_bouts & np.isfinite(tilt).all(axis=1)
     walking_tilt = np.median(tilt[ok], axis=0) if ok.sum() >= 3 else None
-    for i0, i1 in runs:
-        if (i1 - i0) * hop >= s.min_standing_s:
+    # standing phases (>= min_standing_s) first; without one, with an IMU, a still pause (>= min_anchor_s, outside
+    # turns: the still part of a 1.5-2.5 s pause inside a bout lasts 0.5-1.5 s) is the wearer's upright stance
+    # too, and measures the sensor's tilt on the trunk. (Video keeps its first frame there, and its later pauses
+    # re-reference drift from it: taking the first pause instead left the stretch before it uncertain and cost one
+    # change point on the unkind sessions, normal seed 5.)
+    pauses: list[tuple[int, int, float, str]] = [(i0, i1, s.min_standing_s, "standing phase") for i0, i1 in runs]
+    if has_abs and len(seg.still) == len(seg.timeline_t_s):
+        pauses += [(i0, i1, s.min_anchor_s, "still pause")
+                   for i0, i1 in _runs(np.asarray(seg.still, dtype=bool) & (act != "turning"))]
+    for i0, i1, min_s, kind in pauses:
+        if (i1 - i0) * hop >= min_s:
             t0, t1 = float(seg.timeline_t_s[i0]), float(seg.timeline_t_s[i1 - 1])
             m = (t >= t0) & (t <= t1)
             fine = m & np.isfinite(tilt).all(axis=1)
@@ -181,7 +190,7 @@ def _upright(
                 continue  # still but far from the walking posture: sitting, lying or bent down
             if m.sum() >= 3:
                 ref = np.median(a[m], axis=0)
-                where = f"first standing phase {t0:.1f}-{t1:.1f} s"
+                where = f"first {kind} {t0:.1f}-{t1:.1f} s"
                 if has_abs:
                     return ref, where + " (IMU gravity)", (t0, t1)
                 return ref, where, (t0, t1)
