@@ -11,6 +11,7 @@ from walkmon.errors import InvalidInputError
 from walkmon.gait.activity import (
     bouts_from_steps,
     cadence_from_steps,
+    corrected_step_times,
     segment,
     signals_from_angles,
     signals_from_imu,
@@ -205,3 +206,15 @@ def test_steady_state_steps_leave_out_bout_edges_and_turns(synthetic_imu) -> Non
     assert steady.tolist() == [1.0, 1.5, 2.0, 2.5, 3.0, 6.0, 6.5, 7.0, 7.5, 8.0, 8.5]
     short = Bout(0.0, 1.5, (0.0, 0.5, 1.0, 1.5), 120.0, 120.0)
     assert steady_state_steps((short,), (), DEFAULT_ACTIVITY_SETTINGS).size == 0
+
+
+@pytest.mark.parametrize("n", [10, 11, 12, 13])
+@pytest.mark.parametrize("long_s", [0.6, 0.8, 0.9])
+def test_a_limp_is_no_missed_step(n: int, long_s: float) -> None:
+    # A limp alternates a short and a long step (here up to 2x): every interval is a real step, so the
+    # cadence is the true one (120 / stride) whatever the number of intervals; none is split or merged.
+    d = np.tile([0.45, long_s], n)[:n]
+    steps = np.concatenate([[0.0], np.cumsum(d)])
+    true_spm = 120.0 / (0.45 + long_s)
+    assert cadence_from_steps(steps) == pytest.approx(true_spm, rel=0.01)
+    assert corrected_step_times(steps).size == n
