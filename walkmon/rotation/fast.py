@@ -657,8 +657,15 @@ class FastEngine:
                 # the translation past near tracks reads as a rotation (a facade 1-3 m away: 2 cm a frame are
                 # 0.4-1 deg) and the rotation-only fit is the biased one. The essential fit from the second
                 # start is used, as it is in the frames before and after (turns seed 2, rolling_shutter seed 2:
-                # the rotation-only fit was read 0.6 deg off in one frame, reported ok, and 0.6 back the next)
-                fit = _Fit("essential", pose.rotation, np.abs(pose.residuals_px), pose.inliers, EstimateStatus.OK)
+                # the rotation-only fit was read 0.6 deg off in one frame, reported ok, and 0.6 back the next).
+                # A facade is a plane, so the plane check of the branch above applies here too: where a
+                # homography explains the tracks as well, neither fit is trusted (the rotation-only one, flagged)
+                if self._plane_ambiguous(q_kf, q_cur, pose, mask):
+                    fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
+                               reason="planar_ambiguity")
+                else:
+                    fit = _Fit("essential", pose.rotation, np.abs(pose.residuals_px), pose.inliers,
+                               EstimateStatus.OK)
         # (not when the second start won: travelling sideways to the view, the rotation-only change between the
         # frames is the biased one, by the translation's 0.5-1 deg a frame past a facade)
         if (fit.status is EstimateStatus.OK and start != "sideways"
