@@ -181,7 +181,7 @@ def test_a_standing_phase_after_the_turn_re_references_the_video() -> None:
     after = doc["segments"][-1]
     assert after["start_s"] >= 14.5 and after["label"] == "normal"
     assert after["axes"]["roll"]["inclination_mean"] == pytest.approx(model.segments[0].roll_offset_deg, abs=1.0)
-    assert "re-referenced at 1 later standing phase" in doc["upright_reference"]["source"]
+    assert "re-referenced at 1 later still phase" in doc["upright_reference"]["source"]
 
 
 @pytest.mark.parametrize("walk", ["bend", "left_shoulder_down"])
@@ -219,7 +219,7 @@ def test_a_short_pause_inside_a_bout_re_references_the_video_after_a_turn() -> N
     assert after and all(s["label"] == "normal" for s in after)
     for s in after:  # the turn's 5 deg roll error is gone: the truth's roll offset
         assert s["axes"]["roll"]["inclination_mean"] == pytest.approx(model.segments[0].roll_offset_deg, abs=1.0)
-    assert "re-referenced at 1 later standing phase" in doc["upright_reference"]["source"]
+    assert "re-referenced at 1 later still phase" in doc["upright_reference"]["source"]
 
 
 def test_a_still_phase_bent_down_after_the_turn_is_no_re_reference() -> None:

@@ -204,9 +204,10 @@ def _upright(
 
 @dataclass(frozen=True, slots=True)
 class ReferenceUncertainty:
-    """How well the upright reference holds at each sample of video angles (no gravity): ``deg`` (N, 2) the
-    pitch/roll bound of the orientation error carried since the nearest re-reference, 0 where a standing phase
-    in the same straight stretch re-referenced it; ``why`` (N,) an index into ``reasons`` (-1: none)."""
+    """How well the upright reference holds at each sample: ``deg`` (N, 2) the pitch/roll bound of its error.
+    For video angles (no gravity), the orientation error carried since the nearest re-reference, 0 where a
+    still phase in the same straight stretch re-referenced it; with gravity but nothing that measured the
+    sensor's tilt on the trunk, that tilt's bound everywhere. ``why`` (N,) an index into ``reasons`` (-1: none)."""
 
     deg: NDArray[np.float64]
     why: NDArray[np.int64]
@@ -346,7 +347,7 @@ def _rereference(
     out[:, 2] -= drift[:, 1]
     note = ""
     if n_re:
-        note = (f"; re-referenced at {n_re} later standing phase{'s' if n_re > 1 else ''} (drift up to "
+        note = (f"; re-referenced at {n_re} later still phase{'s' if n_re > 1 else ''} (drift up to "
                 f"{np.max(np.abs(drift[:, 0])):.1f} / {np.max(np.abs(drift[:, 1])):.1f} deg pitch / roll removed)")
     if unc.reasons:
         note += f"; uncertain in {len(unc.reasons)} straight stretch{'es' if len(unc.reasons) > 1 else ''} after turns"
@@ -626,7 +627,7 @@ def _heading_free(
     seg: Segmentation, s: SessionSettings,
 ) -> tuple[NDArray, NDArray, str, ReferenceUncertainty | None]:
     """Heading-free inclinations: gravity's pitch/roll with an IMU (``absd``, when mostly finite), else the tilt
-    from the upright pose (re-referenced at later standing phases, :func:`_reference_model`). Returns the angles,
+    from the upright pose (re-referenced at later still phases, :func:`_reference_model`). Returns the angles,
     the upright pitch/roll they are relative to, the reference's source text and, for video, how uncertain the
     reference is after turns."""
     if absd is not None:
