@@ -104,6 +104,7 @@ def truth_relative(d: Path) -> tuple[np.ndarray, np.ndarray]:
 VARIANTS = {
     "fast, full-res tracking": {"tracking_scale": 1.0, "klt_levels": 3},
     "fast, no keyframe window": {"keyframe_window": 1},
+    "fast, no heading reference": {"heading_reference": False},
 }
 
 

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 from walkmon.camera.model import CameraModel
 from walkmon.rotation import geometry as geo
 from walkmon.rotation import shutter
+from walkmon.rotation.heading import HeadingReference
 from walkmon.rotation.types import (
     EstimateStatus,
     RotationEstimate,
@@ -137,7 +138,9 @@ class FastEngine:
         self._t_s = 0.0
         # pitch/roll drift corrected at keyframes from vertical lines (see walkmon.rotation.vertical)
         self._vertical = (
-            VerticalReference(drift_deg_per_s=settings.vertical_drift_deg_s) if settings.vertical_reference else None
+            VerticalReference(drift_deg_per_s=settings.vertical_drift_deg_s,
+                              heading=HeadingReference() if settings.heading_reference else None)
+            if settings.vertical_reference else None
         )
         # the walker's direction of travel in the first frame's axes (see _heading_fit): the optical axis at the
         # start, then low-passed from the baselines of the free essential fits accepted; None after a flagged

@@ -78,7 +78,9 @@ class RotationSettings:
         (``CameraModel.readout_s``), not a rotation setting.
         ``vertical_reference``: correct pitch/roll drift at keyframes from vertical lines (the vertical vanishing
         direction, :mod:`walkmon.rotation.vertical`); ``vertical_drift_deg_s``: how fast the odometry's tilt error
-        is assumed to grow (the correction's process noise, deg after one second).
+        is assumed to grow (the correction's process noise, deg after one second). ``heading_reference`` (needs
+        ``vertical_reference``): correct yaw drift at keyframes from horizontal lines of a Manhattan world
+        (streets, corridors: :mod:`walkmon.rotation.heading`), modulo 90 deg.
     both methods
         ``min_inliers``: fewer inliers than this holds the orientation. ``inlier_px``: inlier threshold.
         ``max_frame_rotation_deg``: a frame-to-frame change larger than this is rejected as implausible for a
@@ -104,6 +106,7 @@ class RotationSettings:
     keyframe_window: int = 4
     vertical_reference: bool = True
     vertical_drift_deg_s: float = 0.03
+    heading_reference: bool = True
     feature_noise_px: float = 0.5
     min_inliers: int = 12
     inlier_px: float = 2.0

@@ -17,7 +17,8 @@ covariance: for a level camera the vanishing point lies far outside the image an
 poorly) and corrects its orientation a little, as a 2-state Kalman filter of the tilt error would: the tilt
 uncertainty grows with time (visual drift) and shrinks with each measurement. The world's vertical itself is
 learnt from the first measurements (the start-relative frame need not be level), so a constant offset of the
-line measurement cancels. Yaw is untouched: no line direction fixes the heading.
+line measurement cancels. Vertical lines leave yaw untouched; the same segments' horizontal ones correct it
+(:mod:`walkmon.rotation.heading`, called from :meth:`VerticalReference.correct` once the vertical is measured).
 
 Where there are no vertical lines (an open field, fog, night) nothing is corrected and the drift is that of the
 odometry alone; fast turns (rolling shutter leans vertical lines) are skipped.
@@ -34,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walkmon.rotation.geometry import rotation_angle_deg, rotation_from_rotvec
+from walkmon.rotation.heading import HeadingReference
 
 __all__ = ["VerticalFit", "VerticalReference", "vertical_fit"]
 
@@ -177,6 +179,7 @@ class VerticalReference:
         max_correction_deg: float = 3.0,
         interval_s: float = 0.0,
         covariance_scale: float = 1.0,
+        heading: HeadingReference | None = None,
     ) -> None:
         self.q = math.radians(drift_deg_per_s) ** 2
         self.floor_deg = floor_deg
@@ -193,6 +196,8 @@ class VerticalReference:
         self._P = self.q * np.eye(2)
         self._last: tuple[float, NDArray[np.float64]] | None = None
         self.corrections = 0
+        #: the yaw reference fed with the same line segments (see walkmon.rotation.heading), or None
+        self.heading = heading
 
     def _segments(
         self, small: NDArray[np.uint8], normalized: Callable[[NDArray[np.float32]], NDArray[np.float64]], scale_px: float
@@ -227,6 +232,8 @@ class VerticalReference:
         if last is not None:
             dt = max(float(t_s) - last[0], 1e-3)
             self._P = self._P + self.q * dt * np.eye(2)
+            if self.heading is not None and self.world_vertical is not None:
+                self.heading.predict(dt, _turned_about_deg(last[1], orientation, self.world_vertical))
             if rotation_angle_deg(last[1].T @ orientation) / dt > self.max_rate_deg_s:
                 return orientation
         found = self._segments(small, normalized, scale_px)
@@ -240,7 +247,7 @@ class VerticalReference:
             fit = vertical_fit(p0, p1, orientation.T @ self.world_vertical, w, min_lines=self.min_lines,
                                floor_deg=self.floor_deg, covariance_scale=self.covariance_scale)
         if fit is None:
-            return orientation
+            return self._heading(p0, p1, w, orientation)
         if self._n_init < self.init_measurements:
             # the world's vertical: an information-weighted mean of the first measurements, while the odometry's
             # drift is still negligible; no correction yet
@@ -248,9 +255,10 @@ class VerticalReference:
             self.world_vertical = self._acc / np.linalg.norm(self._acc)
             self._n_init += 1
             self._P = self.q * np.eye(2)
-            return orientation
+            # the heading reference learns its azimuth from the same first views (with the vertical known so far)
+            return self._heading(p0, p1, w, orientation)
         if float(np.linalg.norm(fit.delta)) > self.max_correction_rad:
-            return orientation  # not the vertical the odometry predicts: lines of something else
+            return self._heading(p0, p1, w, orientation)  # not the vertical predicted: lines of something else
         K = self._P @ np.linalg.inv(self._P + fit.covariance)
         step = K @ fit.delta
         self._P = (np.eye(2) - K) @ self._P
@@ -258,4 +266,21 @@ class VerticalReference:
         # the camera's vertical is where the lines put it: rotate the camera frame so that the measured vertical
         # (rotated from the predicted one by basis @ delta) maps to the world's, by the filter's share of it
         corrected: NDArray[np.float64] = orientation @ rotation_from_rotvec(-(fit.basis @ step))
-        return corrected
+        return self._heading(p0, p1, w, corrected)
+
+    def _heading(
+        self, p0: NDArray[np.float64], p1: NDArray[np.float64], w: NDArray[np.float64], orientation: NDArray[np.float64]
+    ) -> NDArray[np.float64]:
+        """The heading correction, once the world's vertical is measured (it needs the vertical)."""
+        if self.heading is None or self.world_vertical is None:
+            return orientation
+        return self.heading.correct(p0, p1, w, orientation, self.world_vertical)
+
+
+def _turned_about_deg(a: NDArray[np.float64], b: NDArray[np.float64], vertical: NDArray[np.float64]) -> float:
+    """How far (deg) the camera turned about the world's ``vertical`` from orientation ``a`` to ``b`` (camera to
+    start frame): the change of the azimuth of its optical axis (or, looking along the vertical, of its x axis)."""
+    u = vertical / np.linalg.norm(vertical)
+    k = 2 if abs(float(a[:, 2] @ u)) < 0.9 else 0
+    fa, fb = a[:, k] - (a[:, k] @ u) * u, b[:, k] - (b[:, k] @ u) * u
+    return math.degrees(math.atan2(float(np.cross(fa, fb) @ u), float(fa @ fb)))
