@@ -218,3 +218,69 @@ def test_a_limp_is_no_missed_step(n: int, long_s: float) -> None:
     true_spm = 120.0 / (0.45 + long_s)
     assert cadence_from_steps(steps) == pytest.approx(true_spm, rel=0.01)
     assert corrected_step_times(steps).size == n
+
+
+
+def _stooped_walk_angles(
+    ramp_s: tuple[float, float] = (-0.3, 0.6), bend_deg: float = 15.0, seed: int = 0
+) -> tuple[np.ndarray, ...]:
+    """Camera (pitch, yaw, roll) at 30 fps of a walker who stands upright, bends ``bend_deg`` forward while taking the
+    first steps (a smooth ramp from ``ramp_s[0]`` to ``ramp_s[1]`` s about the first step), walks stooped at 110
+    steps/min (1 deg pitch rhythm, maxima at the steps) and straightens up while taking the last steps (the same
+    ramp mirrored about the last step): times, angles and the true steps."""
+    rng = np.random.default_rng(seed)
+    step = 60.0 / 110.0
+    steps = 3.0 + step * np.arange(22)
+    t = np.arange(0.0, steps[-1] + 3.0, 1.0 / 30.0)
+    walking = (t >= steps[0] - 0.5 * step) & (t <= steps[-1] + 0.5 * step)
+    phase = 2 * np.pi * (t - steps[0]) / step
+
+    def ramp(a: float, b: float) -> np.ndarray:  # 0 -> 1, raised cosine between a and b
+        u = np.clip((t - a) / (b - a), 0.0, 1.0)
+        return 0.5 - 0.5 * np.cos(np.pi * u)
+
+    r0, r1 = ramp_s
+    posture = -bend_deg * (ramp(steps[0] + r0, steps[0] + r1) - ramp(steps[-1] - r1, steps[-1] - r0))
+    pitch = posture + np.where(walking, np.cos(phase), 0.0)
+    roll = np.where(walking, 1.5 * np.sin(0.5 * phase), 0.0)  # sway and yaw: one cycle per stride
+    yaw = np.where(walking, 1.5 * np.cos(0.5 * phase), 0.0)
+    a = np.column_stack([pitch, yaw, roll]) + rng.normal(0.0, 0.03, (t.size, 3))
+    return t, a, steps
+
+
+def test_video_bout_edges_survive_a_posture_ramp_at_gait_initiation_and_termination() -> None:
+    """Bending forward while taking the first steps (and straightening while taking the last) makes the pitch
+    monotonic over its 1 s running median, which flattens the step signal there: without the edge search the
+    bout starts ~1 step late and ends ~2 steps early; with it, both edges lie within half a step of the truth
+    and the timeline says walking from the first to the last step."""
+    from walkmon.gait.activity import ActivitySettings
+
+    t, a, steps = _stooped_walk_angles()
+    half_step = 0.5 * float(np.median(np.diff(steps)))
+    seg = segment(signals_from_angles(t, a))
+    assert len(seg.bouts) == 1
+    (b,) = seg.bouts
+    assert b.start_s == pytest.approx(steps[0], abs=half_step)
+    assert b.end_s == pytest.approx(steps[-1], abs=half_step)
+    assert b.cadence_spm == pytest.approx(110.0, rel=0.01)
+    grid, act = np.asarray(seg.timeline_t_s), np.asarray(seg.activity)
+    assert (act[(grid > steps[0] + half_step) & (grid < steps[-1] - half_step)] == "walking").all()
+    assert not (act[(grid < steps[0] - half_step) | (grid > steps[-1] + half_step)] == "walking").any()
+    (old,) = segment(signals_from_angles(t, a), ActivitySettings(edge_search_steps=0)).bouts
+    assert old.start_s - steps[0] > half_step and steps[-1] - old.end_s > 2 * half_step  # the case mended here
+
+
+def test_video_edge_search_leaves_bouts_without_a_posture_ramp_and_imu_alone(synthetic_imu) -> None:
+    """Upright start and stop: the edge search adds nothing (standing around the bout is still); an IMU's
+    segmentation never searches (its bouts are not extended)."""
+    from walkmon.gait.activity import ActivitySettings
+
+    t, a, _ = _stooped_walk_angles(bend_deg=0.0)
+    sig = signals_from_angles(t, a)
+    (b,) = segment(sig).bouts
+    (b0,) = segment(sig, ActivitySettings(edge_search_steps=0)).bouts
+    assert (b.start_s, b.end_s, b.n_steps) == (b0.start_s, b0.end_s, b0.n_steps)
+    rec = synthetic_imu([("stand", 2), ("walk", 8), ("stand", 4), ("walk", 8), ("stand", 2)], seed=3)
+    imu = signals_from_imu(rec.t, rec.acc, rec.gyr)
+    assert [(x.start_s, x.end_s) for x in segment(imu).bouts] == \
+        [(x.start_s, x.end_s) for x in segment(imu, ActivitySettings(edge_search_steps=0)).bouts]

@@ -105,6 +105,12 @@ class ActivitySettings:
     weak_step_fraction: float = 0.3  # edge steps weaker than this x the bout's median amplitude are not steps
     edge_steps: int = 2  # steps of gait initiation / termination at each end of a bout (not steady walking)
     turn_margin_s: float = 0.5  # steps this close to a turn are turn entry / exit (not steady walking)
+    # camera angles only: a bout's edges are searched again for the steps of gait initiation / termination that
+    # a posture change at the same time hides from the running-median step signal (see :func:`_extend_edges`)
+    edge_search_steps: int = 3  # at most this many steps added at each end of a bout (0: no search)
+    # an added step lies this many median steps from its neighbour (the first and last steps are slower)
+    edge_rhythm: tuple[float, float] = (0.7, 1.5)
+    edge_prominence: float = 0.6  # x the bout's RMS of the one-step detrended pitch (a steady step: ~2.8)
 
     def __post_init__(self) -> None:
         for name in ("rate_hz", "window_s", "hop_s", "min_periodicity", "lowpass_factor", "max_break_s"):
@@ -136,6 +142,8 @@ class TrunkSignals:
     kind: str
     gyro_norm_deg_s: NDArray[np.float64] | None = None
     tilt_deg: NDArray[np.float64] | None = None
+    #: the camera's pitch itself (angles only), for the bouts' edge search (:func:`_extend_edges`)
+    pitch_deg: NDArray[np.float64] | None = None
 
     @property
     def rate_hz(self) -> float:
@@ -293,7 +301,7 @@ def signals_from_angles(
     from scipy.ndimage import median_filter
 
     step = a_u[:, 0] - median_filter(a_u[:, 0], size=max(3, int(settings.rate_hz)), mode="nearest")
-    return TrunkSignals(grid, step, heading, "angles", rate, None)
+    return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy())
 
 
 # --------------------------------------------------------------------------------------------- gait windows
@@ -423,6 +431,7 @@ def bouts_from_steps(
         g = _trim_edges(g)
         if g.size < settings.min_steps:
             continue
+        g = _extend_edges(g, sig, settings)
         out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence_from_steps(g, settings, mend=sig is None or sig.kind != "angles"),
                         _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
     return tuple(out)
@@ -451,6 +460,87 @@ def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: f
     while i1 - i0 >= 3 and a[i1 - 1] < fraction * med:
         i1 -= 1
     return g[i0:i1]
+
+
+def _extend_edges(g: NDArray[np.float64], sig: TrunkSignals | None, s: ActivitySettings) -> NDArray[np.float64]:
+    """Camera angles: the steps of gait initiation and termination that a posture change hides, added back.
+
+    A walker bends or straightens the trunk while starting and stopping (the first steps lean into the walk, the
+    last ones come upright; 10-15 deg within a second for a stooped walker). The step signal of the angles (pitch
+    about its 1 s running median) loses the 1-2 deg step rhythm there: where the posture ramp makes the pitch
+    monotonic over the median's window, the median is the sample itself and the signal is flat; the first steps
+    give no maximum at all, the last ones weak ones, and the bout starts late and ends early. Here the pitch
+    is taken about its mean over one step period of the bout instead: that mean removes a linear posture ramp
+    exactly and none of the step rhythm (one full period of it averages out). Maxima of that signal (low-passed
+    like the steps, :func:`_detect`) before the first step and after the last are added one at a time while
+    each lies ``edge_rhythm`` x the bout's median step from its neighbour, has a prominence of at least
+    ``edge_prominence`` x the bout's RMS of the signal and the trunk is not still there (:func:`_still_at`), at
+    most ``edge_search_steps`` at each end. IMU input is left as it is: trunk acceleration has no posture ramp,
+    and on the real lower-back recordings the bouts are, if anything, too long already.
+    """
+    if (sig is None or sig.kind != "angles" or sig.pitch_deg is None or s.edge_search_steps <= 0
+            or g.size < max(3, s.min_steps)):
+        return g
+    from scipy.ndimage import uniform_filter1d
+    from scipy.signal import find_peaks
+
+    fs = sig.rate_hz
+    m = float(np.median(np.diff(g)))
+    lo, hi = s.edge_rhythm
+    reach = (s.edge_search_steps + 1) * hi * m + 1.0
+    i0 = int(np.searchsorted(sig.t_s, g[0] - reach))
+    i1 = int(np.searchsorted(sig.t_s, g[-1] + reach))
+    if i1 - i0 < 16:
+        return g
+    p = sig.pitch_deg[i0:i1]
+    x = p - uniform_filter1d(p, size=max(3, int(round(m * fs))), mode="nearest")
+    y = _butter(x - np.mean(x), fs, (0.25, s.lowpass_factor / m), "band")
+    tt = sig.t_s[i0:i1]
+    inside = (tt >= g[0]) & (tt <= g[-1])
+    amp = float(np.sqrt(np.mean(y[inside] ** 2))) if inside.any() else 0.0
+    if amp <= 0:
+        return g
+    pk, _ = find_peaks(y, distance=max(1, int(s.min_step_fraction * m * fs)), prominence=s.edge_prominence * amp)
+    pt = tt[pk]
+    pt = pt[~_still_at(sig, s, pt)] if pt.size else pt
+    before: list[float] = []
+    after: list[float] = []
+    first, last = float(g[0]), float(g[-1])
+    for _ in range(s.edge_search_steps):
+        c = pt[(pt >= first - hi * m) & (pt <= first - lo * m)]
+        if c.size == 0:
+            break
+        first = float(c[np.argmin(np.abs(first - m - c))])
+        before.insert(0, first)
+    for _ in range(s.edge_search_steps):
+        c = pt[(pt >= last + lo * m) & (pt <= last + hi * m)]
+        if c.size == 0:
+            break
+        last = float(c[np.argmin(np.abs(c - last - m))])
+        after.append(last)
+    if not before and not after:
+        return g
+    return np.concatenate([np.asarray(before, dtype=float), g, np.asarray(after, dtype=float)])
+
+
+def _still_at(sig: TrunkSignals, s: ActivitySettings, times: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """The trunk still about each time (the timeline's standing test, :func:`segment`): the gait-band RMS of
+    the step signal over 1 s below the source's still limit and, with a gyro or angles, the RMS angular rate
+    below ``still_gyro_deg_s``."""
+    fs = s.rate_hz
+    x = _butter(sig.step, fs, (0.4, 4.0), "band")
+    half = int(0.5 * fs)
+    csum = np.concatenate([[0.0], np.cumsum(x * x)])
+    idx = np.clip(np.searchsorted(sig.t_s, times), 0, len(x) - 1)
+    lo = np.clip(idx - half, 0, len(x))
+    hi = np.clip(idx + half, 0, len(x))
+    rms = np.sqrt((csum[hi] - csum[lo]) / np.maximum(hi - lo, 1))
+    still = rms < (s.still_rms_deg if sig.kind == "angles" else s.still_rms_acc)
+    if sig.gyro_norm_deg_s is not None:
+        g2 = np.concatenate([[0.0], np.cumsum(sig.gyro_norm_deg_s ** 2)])
+        grms = np.sqrt((g2[hi] - g2[lo]) / np.maximum(hi - lo, 1))
+        still &= grms < s.still_gyro_deg_s
+    return still
 
 
 def _trim_edges(g: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -589,19 +679,7 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
     grid = np.arange(sig.t_s[0], sig.t_s[-1] + 1e-9, s.hop_s)
     act = np.full(grid.shape, "unknown", dtype=object)
     # still: low step-signal RMS (and low angular rate with a gyro) over 1 s
-    fs = s.rate_hz
-    x = _butter(sig.step, fs, (0.4, 4.0), "band")
-    half = int(0.5 * fs)
-    csum = np.concatenate([[0.0], np.cumsum(x * x)])
-    idx = np.clip(np.searchsorted(sig.t_s, grid), 0, len(x) - 1)
-    lo = np.clip(idx - half, 0, len(x))
-    hi = np.clip(idx + half, 0, len(x))
-    rms = np.sqrt((csum[hi] - csum[lo]) / np.maximum(hi - lo, 1))
-    still = rms < (s.still_rms_deg if sig.kind == "angles" else s.still_rms_acc)
-    if sig.gyro_norm_deg_s is not None:
-        g2 = np.concatenate([[0.0], np.cumsum(sig.gyro_norm_deg_s ** 2)])
-        grms = np.sqrt((g2[hi] - g2[lo]) / np.maximum(hi - lo, 1))
-        still &= grms < s.still_gyro_deg_s
+    still = _still_at(sig, s, grid)
     act[still] = "standing"
     for b in bouts:
         act[(grid >= b.start_s) & (grid <= b.end_s)] = "walking"
