@@ -24,6 +24,9 @@ Processing (:func:`segment`):
    to its last step; leading/trailing steps weaker than ``weak_step_fraction`` x the bout's median step amplitude
    (a weight shift before the first step, sway after the last) and a first/last step interval shorter than
    0.6 x the bout's median are gait initiation/termination, not steps, and are dropped.
+   From camera angles only, the ends of each bout are searched again (:func:`_extend_edges`) for the steps a
+   posture change at the same time hides from the running-median pitch: the pitch about its mean over one step
+   period, maxima in the bout's rhythm, strong enough, where the trunk is not still.
 4. **Cadence per bout** from the steps: the mean of 120 / stride duration after mending missed steps (an
    interval ~2x the median step) and extra ones (two short intervals summing to one), which turns and slow
    walking produce; strides spanning a pause (above ``pause_factor`` x the median stride) or hurried (below the
