@@ -26,7 +26,9 @@ Processing (:func:`segment`):
    0.6 x the bout's median are gait initiation/termination, not steps, and are dropped.
    From camera angles only, the ends of each bout are searched again (:func:`_extend_edges`) for the steps a
    posture change at the same time hides from the running-median pitch: the pitch about its mean over one step
-   period, maxima in the bout's rhythm, strong enough, where the trunk is not still.
+   period, maxima in the bout's rhythm, strong enough, where the trunk is not still. Known weakness: bending
+   while standing just before or after a walk moves the trunk (not still) and leaves a bump after the one-step
+   mean; a synthetic 10 deg bend ending 0.5 s before the first step starts the bout ~1 s early.
 4. **Cadence per bout** from the steps: the mean of 120 / stride duration after mending missed steps (an
    interval ~2x the median step) and extra ones (two short intervals summing to one), which turns and slow
    walking produce; strides spanning a pause (above ``pause_factor`` x the median stride) or hurried (below the

@@ -28,9 +28,14 @@ the azimuth and learns the lines anew. Over a curve the heading can therefore lo
 on top of the odometry's own drift (a drawn street curving at 0.3 deg/s for 40 s: 1.2 deg; without the budget
 7.3 deg). Where there are no such lines (a park, fog, night, a real drone clip over a coast) nothing is corrected.
 
-Limits: the reference is modulo 90 deg (a turn onto a street at 45 deg is not corrected: its lines are not the
+Limits: a fast turn may leave more yaw error than 1 % of the turn plus ``give_up_deg`` (the hard-scene turns
+leave 1-3 deg); the reference then restarts instead of correcting it (``test_heading.py``). The reference is
+modulo 90 deg (a turn onto a street at 45 deg is not corrected: its lines are not the
 learnt ones, and a long oblique street is learnt anew); the line measurement has a view-dependent bias of a few
-tenths of a degree, which the azimuth learnt from the first views carries into every later correction.
+tenths of a degree, which the azimuth learnt from the first views carries into every later correction; those
+views are not checked to agree, and the basis is fixed at the first call, while the vertical is still being
+learnt. Segments at the camera's height (a horizontal interpretation plane) pass the near-vertical test but
+give noisy azimuths; they are outvoted, not excluded.
 """
 
 from __future__ import annotations
