@@ -420,12 +420,17 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
 
 
 def bouts_from_steps(
-    steps_s: ArrayLike, sig: TrunkSignals | None = None, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS
+    steps_s: ArrayLike, sig: TrunkSignals | None = None, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS,
+    *, still: NDArray[np.bool_] | None = None,
 ) -> tuple[Bout, ...]:
-    """Walking bouts (>= ``min_steps`` steps, breaks shorter than ``max_break_s`` joined), with cadences."""
+    """Walking bouts (>= ``min_steps`` steps, breaks shorter than ``max_break_s`` joined), with cadences.
+    ``still``: :func:`_still_samples` of ``sig`` when the caller has it (computed here when the edge search
+    needs it)."""
     st = np.asarray(steps_s, dtype=float)
     if st.size == 0:
         return ()
+    if still is None and sig is not None and sig.kind == "angles" and settings.edge_search_steps > 0:
+        still = _still_samples(sig, settings)  # once for all the bouts' edge searches
     breaks = np.flatnonzero(np.diff(st) > settings.max_break_s)
     groups = np.split(st, breaks + 1)
     amp = _step_amplitudes(st, sig, settings)
@@ -436,7 +441,7 @@ def bouts_from_steps(
         g = _trim_edges(g)
         if g.size < settings.min_steps:
             continue
-        g = _extend_edges(g, sig, settings)
+        g = _extend_edges(g, sig, settings, still)
         out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence_from_steps(g, settings, mend=sig is None or sig.kind != "angles"),
                         _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
     return tuple(out)
@@ -467,7 +472,9 @@ def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: f
     return g[i0:i1]
 
 
-def _extend_edges(g: NDArray[np.float64], sig: TrunkSignals | None, s: ActivitySettings) -> NDArray[np.float64]:
+def _extend_edges(
+    g: NDArray[np.float64], sig: TrunkSignals | None, s: ActivitySettings, still: NDArray[np.bool_] | None
+) -> NDArray[np.float64]:
     """Camera angles: the steps of gait initiation and termination that a posture change hides, added back.
 
     A walker bends or straightens the trunk while starting and stopping (the first steps lean into the walk, the
@@ -483,7 +490,7 @@ def _extend_edges(g: NDArray[np.float64], sig: TrunkSignals | None, s: ActivityS
     most ``edge_search_steps`` at each end. IMU input is left as it is: trunk acceleration has no posture ramp,
     and on the real lower-back recordings the bouts are, if anything, too long already.
     """
-    if (sig is None or sig.kind != "angles" or sig.pitch_deg is None or s.edge_search_steps <= 0
+    if (sig is None or still is None or sig.kind != "angles" or sig.pitch_deg is None or s.edge_search_steps <= 0
             or g.size < max(3, s.min_steps)):
         return g
     from scipy.ndimage import uniform_filter1d
@@ -507,7 +514,7 @@ def _extend_edges(g: NDArray[np.float64], sig: TrunkSignals | None, s: ActivityS
         return g
     pk, _ = find_peaks(y, distance=max(1, int(s.min_step_fraction * m * fs)), prominence=s.edge_prominence * amp)
     pt = tt[pk]
-    pt = pt[~_still_at(sig, s, pt)] if pt.size else pt
+    pt = pt[~_still_at(still, sig.t_s, pt)] if pt.size else pt
     before: list[float] = []
     after: list[float] = []
     first, last = float(g[0]), float(g[-1])
@@ -528,15 +535,15 @@ def _extend_edges(g: NDArray[np.float64], sig: TrunkSignals | None, s: ActivityS
     return np.concatenate([np.asarray(before, dtype=float), g, np.asarray(after, dtype=float)])
 
 
-def _still_at(sig: TrunkSignals, s: ActivitySettings, times: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """The trunk still about each time (the timeline's standing test, :func:`segment`): the gait-band RMS of
-    the step signal over 1 s below the source's still limit and, with a gyro or angles, the RMS angular rate
-    below ``still_gyro_deg_s``."""
+def _still_samples(sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.bool_]:
+    """The trunk still about each sample of ``sig`` (the timeline's standing test, :func:`segment`): the
+    gait-band RMS of the step signal over 1 s below the source's still limit and, with a gyro or angles, the RMS
+    angular rate below ``still_gyro_deg_s``."""
     fs = s.rate_hz
     x = _butter(sig.step, fs, (0.4, 4.0), "band")
     half = int(0.5 * fs)
     csum = np.concatenate([[0.0], np.cumsum(x * x)])
-    idx = np.clip(np.searchsorted(sig.t_s, times), 0, len(x) - 1)
+    idx = np.arange(len(x))
     lo = np.clip(idx - half, 0, len(x))
     hi = np.clip(idx + half, 0, len(x))
     rms = np.sqrt((csum[hi] - csum[lo]) / np.maximum(hi - lo, 1))
@@ -545,7 +552,12 @@ def _still_at(sig: TrunkSignals, s: ActivitySettings, times: NDArray[np.float64]
         g2 = np.concatenate([[0.0], np.cumsum(sig.gyro_norm_deg_s ** 2)])
         grms = np.sqrt((g2[hi] - g2[lo]) / np.maximum(hi - lo, 1))
         still &= grms < s.still_gyro_deg_s
-    return still
+    return np.asarray(still, dtype=bool)
+
+
+def _still_at(still: NDArray[np.bool_], t_s: NDArray[np.float64], times: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """:func:`_still_samples` (``still`` on the grid ``t_s``) at arbitrary times (the sample at or after each)."""
+    return still[np.clip(np.searchsorted(t_s, times), 0, len(still) - 1)]
 
 
 def _trim_edges(g: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -679,12 +691,13 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
     """Bouts, turns, steps and the activity timeline of one recording (see the module text)."""
     s = settings
     steps, tc, gait = _detect(sig, s)
-    bouts = bouts_from_steps(steps, sig, s)
+    still_samples = _still_samples(sig, s)
+    bouts = bouts_from_steps(steps, sig, s, still=still_samples)
     turns = detect_turns(sig, s)
     grid = np.arange(sig.t_s[0], sig.t_s[-1] + 1e-9, s.hop_s)
     act = np.full(grid.shape, "unknown", dtype=object)
     # still: low step-signal RMS (and low angular rate with a gyro) over 1 s
-    still = _still_at(sig, s, grid)
+    still = _still_at(still_samples, sig.t_s, grid)
     act[still] = "standing"
     for b in bouts:
         act[(grid >= b.start_s) & (grid <= b.end_s)] = "walking"
