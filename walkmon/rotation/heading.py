@@ -135,13 +135,17 @@ class HeadingReference:
         self.azimuth: float | None = None  # the world's Manhattan azimuth (rad, modulo pi/2), once learnt
         self._init: list[tuple[float, float]] = []
         self._basis: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None = None
-        self._e = 0.0  # the filter's estimate of the current orientation's yaw error not yet corrected (rad)
-        self._P = self.q  # and its variance
-        self._budget = 0.0  # how much (rad) may still be corrected: what the odometry can have drifted since
+        self._e = self._P = self._budget = 0.0
+        self._reset_filter()
         #: the last measurement of the yaw error and its standard deviation (deg), for diagnostics
         self.last_measurement_deg: tuple[float, float] | None = None
         self.corrections = 0
         self.restarts = 0  # times the lines disagreed with the drift the odometry can have and were learnt anew
+
+    def _reset_filter(self) -> None:
+        self._e = 0.0  # the filter's estimate of the current orientation's yaw error not yet corrected (rad)
+        self._P = self.q  # and its variance
+        self._budget = 0.0  # how much (rad) may still be corrected: what the odometry can have drifted since
 
     def predict(self, dt_s: float, turned_deg: float) -> None:
         """Grow the yaw uncertainty over ``dt_s`` seconds in which the camera turned ``turned_deg`` (a turn's
@@ -179,7 +183,7 @@ class HeadingReference:
                 s = np.array([c for _, c in self._init])
                 # circular mean modulo pi/2: on the circle of 4 x the angle
                 self.azimuth = 0.25 * math.atan2(float(np.sum(s * np.sin(4 * m))), float(np.sum(s * np.cos(4 * m))))
-                self._e, self._P, self._budget = 0.0, self.q, 0.0
+                self._reset_filter()
             return orientation
         r = _wrap(az - self.azimuth)  # each line's yaw error, if it is a Manhattan line
         expected = self._e  # the filter's prediction of it
@@ -214,14 +218,15 @@ class HeadingReference:
         if abs(self._e) > self._budget + self.give_up:
             # more error than the odometry can have made: these lines are not the Manhattan directions learnt
             # (a street that curves or runs obliquely); start again from the lines seen from now on
-            self.azimuth, self._init, self._e, self._P, self._budget = None, [], 0.0, self.q, 0.0
+            self.azimuth, self._init = None, []
+            self._reset_filter()
             self.restarts += 1
             return orientation
         # Applied now, at most max_step (no frame jumps) and at most the budget: what the odometry can have drifted
         # since the last correction at the largest drift rate assumed. The rest waits for the next keyframes. The
         # budget is what keeps a street that curves (its lines' azimuth turning with the walker faster than any
-        # drift) from dragging the heading along: the innovation soon leaves the gate and the reference stops,
-        # having moved the heading by no more than that drift.
+        # drift) from dragging the heading along: the estimate soon outgrows the budget and the reference
+        # restarts (above), having moved the heading by no more than that drift.
         step = float(np.clip(self._e, -min(self.max_step, self._budget), min(self.max_step, self._budget)))
         self._e -= step
         self._budget -= abs(step)
