@@ -247,8 +247,13 @@ def fmt(v: float, nd: int = 1) -> str:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--no-mobgap", action="store_true")
+    ap.add_argument("--no-mobgap", action="store_true",
+                    help="walkmon only (the mobgap package not needed); prints the tables but does not overwrite "
+                         "benchmarks/results/real_gait.* unless --out says where")
+    ap.add_argument("--out", default=None, help="results path without suffix (default: benchmarks/results/real_gait; "
+                                                 "with --no-mobgap: none, print only)")
     args = ap.parse_args()
+    out = Path(args.out) if args.out else (None if args.no_mobgap else RESULTS / "real_gait")
     base = data_root()
     t0 = time.perf_counter()
     trials = mobgap_trials(base)
@@ -359,8 +364,11 @@ def main() -> int:
     ]
     text = "\n".join(md) + "\n"
     print(text)
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "real_gait.md").write_text(text, encoding="utf-8")
+    if out is None:
+        print("(--no-mobgap: results not written; the committed tables hold mobgap beside walkmon)")
+        return 0
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.with_suffix(".md").write_text(text, encoding="utf-8")
 
     def clean(v):
         return None if isinstance(v, float) and not np.isfinite(v) else v
@@ -368,7 +376,7 @@ def main() -> int:
     doc = {"mobilised": [{k: clean(v) for k, v in r.items()} for r in doc_rows],
            "oxford": [{k: clean(v) for k, v in r.items()} for r in ox_doc],
            "labels": label_doc, "pathology_labels_on_healthy": len(pathology), "consensus": consensus_doc}
-    (RESULTS / "real_gait.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    out.with_suffix(".json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
     return 0
 
 
