@@ -13,7 +13,8 @@ _WALK_HELP = (
     "TYPE:SECONDS segments such as normal:10,bend:10 (stand:S pauses); 2 s of standing start and end every session, "
     "except in session scripts, taken literally: those with turn:DEGREES[:SECONDS] (> 0 right) or pause:SECONDS "
     "segments, e.g. stand:3,normal:10,turn:180,normal:8,pause:2,bend:10 (starts standing, ends mid-walk); "
-    "with --unkind, the walk type a random unkind session is built around"
+    "mount:PITCH[:ROLL] anywhere tilts the camera (and its IMU) on the trunk, degrees (e.g. mount:-15: pointing "
+    "15 deg down); with --unkind, the walk type a random unkind session is built around"
 )
 
 

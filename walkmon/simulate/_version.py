@@ -7,4 +7,6 @@ from __future__ import annotations
 #: initiation/termination, posture changes), truth_timeline.csv/truth_steps.csv, unwrapped truth yaw, version in meta.json.
 #: 3: unknown activity in session scripts (sit, pickup, camera), session steps are initial contacts (half-integer
 #: phases) so a walk type's alternating-step asymmetry shows in the contacts' step times (right_foot_drag).
-SIMULATOR_VERSION = 3
+#: 4: the camera's mount on the trunk (script token ``mount:PITCH[:ROLL]``; unkind sessions draw one), meta.json
+#: ``mount_deg``; a session without the token is unchanged.
+SIMULATOR_VERSION = 4

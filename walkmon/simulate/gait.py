@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicSpline
 
-from walkmon.consts import angles_deg_from_rotation, rot_x, rot_y, rot_z
+from walkmon.consts import angles_deg_from_rotation, rot_x, rot_y, rot_z, rotation_from_angles_deg
 from walkmon.errors import InvalidInputError
 
 __all__ = [
@@ -53,6 +53,7 @@ __all__ = [
     "TimelinePiece",
     "is_session_script",
     "parse_walk_script",
+    "split_mount",
 ]
 
 _log = logging.getLogger(__name__)
@@ -71,6 +72,16 @@ UNKNOWN_TOKENS = ("sit", "pickup", "camera")
 
 #: Activities of the truth timeline (``unknown``: the :data:`UNKNOWN_TOKENS` pieces).
 ACTIVITIES = ("standing", "walking", "turning", "unknown")
+
+#: Script token of the camera's mount on the trunk: ``mount:PITCH[:ROLL]`` (degrees; pitch < 0 points the camera
+#: down, roll > 0 clockwise seen from behind), anywhere in a script, e.g. ``mount:-15,normal:10``. A chest camera
+#: is rarely level on the trunk (a strap or clip points it a little down at the path); the trunk's posture is what
+#: walkmon measures, the camera's tilt on the trunk is what it must not mistake for posture (after a turn,
+#: start-relative angles of a tilted camera read up to twice its tilt). Default: level (0, 0).
+MOUNT_TOKEN = "mount"
+
+#: Mount angles a script may ask for, degrees (absolute value): pitch, roll.
+_MOUNT_LIMITS_DEG = (45.0, 20.0)
 
 #: Turn angles a script may ask for, degrees (absolute value).
 _TURN_LIMITS_DEG = (10.0, 360.0)
@@ -139,6 +150,38 @@ class SegmentParams:
 
 _SEGMENT_RE = re.compile(r"^([a-z_]+)(?::([0-9]*\.?[0-9]+))?$")
 _TURN_RE = re.compile(r"^turn:([+-]?[0-9]*\.?[0-9]+)(?::([0-9]*\.?[0-9]+))?$")
+
+
+def split_mount(script: str) -> tuple[str, tuple[float, float]]:
+    """``(script without its mount token, (pitch, roll) of the camera on the trunk in degrees)``; (0, 0) without
+    a ``mount:PITCH[:ROLL]`` token (see :data:`MOUNT_TOKEN`)."""
+    if not isinstance(script, str):
+        return script, (0.0, 0.0)
+    parts = [p.strip() for p in script.strip().split(",")]
+    mounts = [p for p in parts if p.lower().split(":")[0] == MOUNT_TOKEN]
+    if not mounts:
+        return script, (0.0, 0.0)
+    if len(mounts) > 1:
+        msg = f"walk script {script!r}: one mount:PITCH[:ROLL] token at most"
+        raise InvalidInputError(msg)
+    fields = mounts[0].split(":")[1:]
+    try:
+        vals = [float(v) for v in fields]
+    except ValueError:
+        vals = []
+    if not 1 <= len(vals) <= 2 or not all(np.isfinite(vals)):
+        msg = f"walk script {script!r}: cannot parse {mounts[0]!r} (expected mount:PITCH or mount:PITCH:ROLL, degrees)"
+        raise InvalidInputError(msg)
+    pitch, roll = vals[0], (vals[1] if len(vals) > 1 else 0.0)
+    if abs(pitch) > _MOUNT_LIMITS_DEG[0] or abs(roll) > _MOUNT_LIMITS_DEG[1]:
+        msg = (f"walk script {script!r}: the camera's mount must be within +-{_MOUNT_LIMITS_DEG[0]:g} deg pitch and "
+               f"+-{_MOUNT_LIMITS_DEG[1]:g} deg roll on the trunk, got {pitch:g}, {roll:g}")
+        raise InvalidInputError(msg)
+    rest = ",".join(p for p in parts if p not in mounts)
+    if not rest:
+        msg = f"walk script {script!r}: a mount token needs a walk beside it, e.g. mount:-15,normal"
+        raise InvalidInputError(msg)
+    return rest, (pitch, roll)
 
 
 def is_session_script(segments: list[Segment], stand_s: float = STANDING_S) -> bool:
@@ -277,7 +320,10 @@ class GaitModel:
 
     ``pose(t_s)`` gives the orientation relative to frame 0 (N, 3, 3) and position (N, 3) in metres in the
     world (= camera 0) frame; ``angular_velocity_rps`` and ``acceleration_mps2`` give the exact derivatives the
-    IMU model needs. Times outside ``[0, duration_s]`` are clamped.
+    IMU model needs. Times outside ``[0, duration_s]`` are clamped. With a ``mount:PITCH[:ROLL]`` token in the
+    script (:data:`MOUNT_TOKEN`) the camera (and the IMU in it) sits tilted on the trunk by ``mount_deg``: its
+    orientation is the trunk's times that tilt, so the world frame is the upright trunk's at frame 0 (gravity
+    along +y) and a session starting upright has the mount's angles at frame 0.
     """
 
     script: str
@@ -291,6 +337,8 @@ class GaitModel:
     standing_intervals_s: tuple[tuple[float, float], ...] = field(init=False)
     literal: bool = field(init=False)
     pieces: tuple[TimelinePiece, ...] = field(init=False)
+    #: (pitch, roll) of the camera on the trunk, degrees (from the script's mount token; (0, 0): level)
+    mount_deg: tuple[float, float] = field(init=False)
     _splines: dict[str, CubicSpline] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -300,7 +348,9 @@ class GaitModel:
         if not (np.isfinite(self.transition_s) and 0.0 < self.transition_s <= 5.0):
             msg = f"transition time must be in (0, 5] s, got {self.transition_s}"
             raise InvalidInputError(msg)
-        script_segments = parse_walk_script(self.script, self.seconds, stand_s=self.stand_s)
+        walk_script, mount = split_mount(self.script)
+        object.__setattr__(self, "mount_deg", mount)
+        script_segments = parse_walk_script(walk_script, self.seconds, stand_s=self.stand_s)
         literal = is_session_script(script_segments, self.stand_s)
         object.__setattr__(self, "literal", literal)
         if literal:
@@ -495,9 +545,16 @@ class GaitModel:
         return self._splines["angles"](self._frozen(t_s)[0])
 
     def rotation(self, t_s: ArrayLike) -> NDArray[np.float64]:
-        """Orientation relative to frame 0 (camera-t directions into camera 0 / world), shape (N, 3, 3)."""
+        """Orientation of the camera in the world (camera-t directions into the world frame), shape (N, 3, 3):
+        the trunk's, times the camera's mount on it."""
         a = np.radians(self.body_angles_deg(t_s))
-        return rot_y(a[:, 1]) @ rot_x(a[:, 0]) @ rot_z(a[:, 2])
+        r = rot_y(a[:, 1]) @ rot_x(a[:, 0]) @ rot_z(a[:, 2])
+        return r @ self._mount() if self.mount_deg != (0.0, 0.0) else r
+
+    def _mount(self) -> NDArray[np.float64]:
+        """The camera's orientation on the trunk (camera directions into trunk directions), (3, 3): the mount's
+        pitch and roll in walkmon's angle convention (:mod:`walkmon.consts`)."""
+        return rotation_from_angles_deg(self.mount_deg[0], 0.0, self.mount_deg[1])
 
     def position_m(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """Camera position in the world (= camera 0) frame, metres, shape (N, 3)."""
@@ -521,7 +578,9 @@ class GaitModel:
         # R = Ry(psi) Rx(theta) Rz(phi):  w = (Rx Rz)^T e_y psi' + Rz^T e_x theta' + e_z phi'
         w_yaw = np.swapaxes(rx @ rz, -1, -2) @ e_y
         w_pitch = np.swapaxes(rz, -1, -2) @ e_x
-        return w_yaw * da[:, 1:2] + w_pitch * da[:, 0:1] + e_z[None, :] * da[:, 2:3]
+        w = w_yaw * da[:, 1:2] + w_pitch * da[:, 0:1] + e_z[None, :] * da[:, 2:3]
+        # the camera's rate is the trunk's in the camera's axes (R_cam = R_trunk M: w_cam = M^T w_trunk)
+        return w @ self._mount() if self.mount_deg != (0.0, 0.0) else w
 
     def acceleration_mps2(self, t_s: ArrayLike) -> NDArray[np.float64]:
         """Second derivative of the position in the world frame, m/s², shape (N, 3)."""
@@ -550,6 +609,7 @@ class GaitModel:
             "transition_s": self.transition_s,
             "standing_intervals_s": [[round(a, 6), round(b, 6)] for a, b in self.standing_intervals_s],
             "camera_height_m": self.camera_height_m,
+            "mount_deg": {"pitch": self.mount_deg[0], "roll": self.mount_deg[1]},
             "segments": [p.to_dict() for p in self.segments],
         }
 

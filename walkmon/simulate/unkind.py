@@ -6,7 +6,8 @@ turns by 180° (U-turns) or by 90° towards a facade and 90° on (at once, after
 few steps towards it), moves without a gait rhythm once in most sessions (sits down on a bench, bends down to
 pick something up or handles the camera: the truth's ``unknown``), changes posture in
 the middle of a bout (to ``bend`` and back for a normal walker, to ``normal`` and back for the others, each
-posture held long enough to measure: >= 6 s) and ends standing or mid-walk. The same seed gives the same
+posture held long enough to measure: >= 6 s) and ends standing or mid-walk. The camera sits on the trunk
+tilted as a chest mount holds it (``mount:PITCH:ROLL``: 25 deg down to 5 deg up, +-3 deg askew). The same seed gives the same
 script; the script itself is the truth's description (``GaitModel`` lays it out and records the timeline).
 """
 
@@ -84,4 +85,8 @@ def unkind_script(seed: int, walk: str = "normal") -> str:
         else:  # between two bouts, after the pause
             i = slots[where - 1]
             parts[i:i] = piece
+    # the camera's mount on the trunk (a stream of its own too): a chest strap or clip rarely holds the camera
+    # level; it points a little down at the path (here 0-25 deg, or up to 5 deg up) and sits a few degrees askew
+    mnt = np.random.default_rng([int(seed), 0x0C1F, UNKIND_WALKS.index(walk)])
+    parts.insert(0, f"mount:{_s(mnt.uniform(-25.0, 5.0))}:{_s(mnt.uniform(-3.0, 3.0))}")
     return ",".join(parts)
