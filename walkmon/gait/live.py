@@ -287,6 +287,10 @@ class LiveIndicatorStage:
         self._calibration_pending = "start"
         self._pending_event: CalibrationEvent | None = None
         self._last_steps = np.zeros(0)
+        # gravity's direction in the start frame, learnt from the turns seen so far (see :meth:`_learn_vertical`)
+        self._turn_axes: list[tuple[NDArray[np.float64], float]] = []
+        self._turns_done_s = -math.inf
+        self._vertical: NDArray[np.float64] | None = None
 
     @property
     def reference_deg(self) -> NDArray[np.float64]:
@@ -296,6 +300,12 @@ class LiveIndicatorStage:
     @property
     def calibrated(self) -> bool:
         return self._calibrated
+
+    @property
+    def vertical(self) -> NDArray[np.float64] | None:
+        """Gravity's direction (down) in the start frame learnt from the wearer's turns, None before the first
+        turn of 60 deg or more (the camera is then assumed level on the trunk)."""
+        return None if self._vertical is None else self._vertical.copy()
 
     def request_calibration(self) -> None:
         """Take a new upright reference from the next ``calibration_s`` of still stance."""
@@ -309,6 +319,9 @@ class LiveIndicatorStage:
         if self._t and t_s <= self._t[-1]:
             return None  # out of order or repeated timestamp: ignore
         s = self.settings
+        if self._a:  # yaw continuous across +-180 (a U-turn): a wrapped window reads a 360 deg "swing"
+            prev = self._a[-1][1]
+            a = (a[0], a[1] + 360.0 * round((prev - a[1]) / 360.0), a[2])
         self._t.append(float(t_s))
         self._a.append(a)  # type: ignore[arg-type]
         while self._t and self._t[0] < t_s - s.window_s:
@@ -373,7 +386,7 @@ class LiveIndicatorStage:
         fs = s.resample_hz
         nan3 = (math.nan, math.nan, math.nan)
         recent = t >= t_now - s.posture_window_s
-        posture = tuple(float(v) for v in a[recent].mean(axis=0)) if recent.any() else nan3
+        posture = tuple(float(v) for v in self._posture(t, recent)) if recent.any() else nan3
         walk_part = u[grid >= t_now - s.walking_window_s]
         gait_rms = max(gait_band_rms_deg(walk_part[:, k], fs, s.gait_band_hz) for k in (0, 2)) if len(walk_part) else 0.0
         walking = bool(gait_rms >= s.walking_min_rms_deg)
@@ -425,6 +438,42 @@ class LiveIndicatorStage:
             activity=activity,
         )
 
+    def _posture(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> NDArray[np.float64]:
+        """Mean (pitch, yaw, roll) over the ``recent`` samples: pitch and roll the trunk's heading-free tilt from
+        the upright reference (start-relative Euler angles mix them once the wearer has turned: after a U-turn a
+        forward lean reads backward, and a camera tilted by d on the trunk reads up to 2 d of tilt), yaw from the
+        reference."""
+        from walkmon.gait.session import heading_free_angles  # noqa: PLC0415
+
+        a = np.asarray(self._a, dtype=float)
+        if len(t) >= 3:
+            a = heading_free_angles(t, a, self._reference, self._vertical)
+            a[:, 1] -= self._reference[1]
+        else:
+            a = a - self._reference
+        out = a[recent].mean(axis=0)
+        out[1] = (out[1] + 180.0) % 360.0 - 180.0  # the heading, shown within +-180
+        return out
+
+    def _learn_vertical(self, t: NDArray[np.float64], a: NDArray[np.float64], turns: tuple) -> None:
+        """Add each turn of 60 deg or more, once it lies in the window with a stride's margin on both sides, to
+        the turns that give gravity's direction (:func:`walkmon.gait.session.turn_axis`)."""
+        from walkmon.gait.session import turn_axis, vertical_from_axes  # noqa: PLC0415
+
+        added = False
+        for u in turns:
+            if u.end_s <= self._turns_done_s or abs(u.angle_deg) < 60.0 or u.end_s + 1.6 > t[-1]:
+                continue
+            r = turn_axis(t, a, u.start_s, u.end_s)
+            if r is not None and r[1] >= 30.0:
+                self._turn_axes.append(r)
+                added = True
+            self._turns_done_s = u.end_s
+        if added:  # one turn alone is taken too (a tilted chest camera is the rule, a posture change mid-turn
+            # the exception); turns that disagree by more than 10 deg are none of the two: the camera assumed level
+            v = vertical_from_axes(self._turn_axes)
+            self._vertical = None if v is None or v.spread_deg > 10.0 else v.down
+
     def _activity(self, t: NDArray[np.float64], a: NDArray[np.float64], t_now: float) -> tuple[
         str, tuple[float, float] | None
     ]:
@@ -437,6 +486,7 @@ class LiveIndicatorStage:
             seg = segment(signals_from_angles(t, a))
         except Exception:  # noqa: BLE001 - a degenerate window is 'unknown', never a crash of the live loop
             return "unknown", None
+        self._learn_vertical(t, a, seg.turns)
         for u in seg.turns:
             if u.end_s >= t_now - 0.5:
                 return "turning", None
@@ -453,10 +503,23 @@ class LiveIndicatorStage:
         return ("standing" if act == "standing" else "unknown"), None
 
     def _classify_span(self, t: NDArray[np.float64], a: NDArray[np.float64], span: tuple[float, float]):  # noqa: ANN202
-        """The offline classifier on the window's walking span (heading-free angles from the reference)."""
-        from walkmon.gait.session import change_points, heading_free_angles, span_indicators  # noqa: PLC0415
+        """The offline classifier on the window's walking span (heading-free angles from the reference; in the
+        level frame of gravity's direction once the turns gave it, as the offline analysis)."""
+        from walkmon.gait.session import (  # noqa: PLC0415
+            change_points,
+            heading_free_angles,
+            level_basis,
+            level_frame_angles,
+            span_indicators,
+        )
 
-        hf = heading_free_angles(t, a, self._reference)
+        ref, down = self._reference, self._vertical
+        if down is not None:
+            basis = level_basis(down)
+            a = level_frame_angles(a, basis)
+            ref = level_frame_angles(ref[None, :], basis)[0]
+            down = np.array([0.0, 1.0, 0.0])
+        hf = heading_free_angles(t, a, ref, down)
         steps = self._last_steps  # the window's steps, from the segmentation that found the walking span
         m = (t >= span[0]) & (t <= span[1])
         cuts = change_points(t[m], hf[m])  # a posture change inside the span: classify what follows it

@@ -59,8 +59,15 @@ __all__ = [
     "analyze_session",
     "change_points",
     "heading_free_angles",
+    "level_basis",
+    "level_frame_angles",
     "span_indicators",
     "timeline_rows",
+    "VERTICAL_AGREE_DEG",
+    "turn_axis",
+    "vertical_from_axes",
+    "vertical_from_turns",
+    "Vertical",
 ]
 
 
@@ -86,6 +93,9 @@ class SessionSettings:
     #: at whatever angle its strap gives, and the lower-back sensors of the shared Mobilise-D walks read 9-18 deg
     #: of pitch from gravity while their wearers walk upright (the bend threshold is -8 deg).
     mount_tilt_deg: float = 20.0
+    #: Video: gravity's direction from the wearer's turns (:func:`vertical_from_turns`); False assumes the camera
+    #: level on the trunk (the analysis before it existed)
+    turn_vertical: bool = True
 
 
 DEFAULT_SESSION_SETTINGS = SessionSettings()
@@ -116,16 +126,21 @@ def _num(v: float, nd: int = 4) -> float | None:
 
 
 def heading_free_angles(
-    t_s: ArrayLike, angles_deg: NDArray[np.float64], upright_deg: ArrayLike
+    t_s: ArrayLike, angles_deg: NDArray[np.float64], upright_deg: ArrayLike, vertical: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
     """(pitch, yaw, roll) whose slow part (posture) is the trunk's tilt relative to the upright pose.
 
     Start-relative Euler angles mix pitch and roll once the wearer has turned (after a 180 deg turn a forward
-    lean reads backward in them). The tilt is taken from the direction the upright pose's vertical has at each
-    frame (``M(t)^T M(upright) e_y``, ``M`` the start-relative orientation): it does not depend on heading.
-    Only the slow difference (2.5 s mean) between tilt and Euler angles is applied, so the gait oscillation (the
-    paper's swings, defined on the camera's Euler angles) is kept as measured. ``upright_deg``: the start-relative
-    angles of the upright pose.
+    lean reads backward in them). The tilt is taken from the direction gravity has at each frame,
+    ``M(t)^T v`` (``M`` the start-relative orientation, ``v`` gravity's direction in the start frame), against
+    the direction it had in the upright pose, ``g_u = M(upright)^T v``: the angles of ``M(t)^T v`` in a basis of
+    the camera frame that is level at the upright pose (``g_u`` down, the camera's x made horizontal, forward
+    their cross product). It does not depend on heading. ``vertical``: ``v`` (down, in the start frame's
+    coordinates), e.g. :func:`vertical_from_turns`; None assumes the camera level on the trunk at the upright pose
+    (``v = M(upright) e_y``), which a chest camera rarely is: tilted by ``d`` on the trunk, a wearer who turns
+    180 deg then reads up to ``2 d`` of tilt that is not there. Only the slow difference (2.5 s mean) between tilt
+    and Euler angles is applied, so the gait oscillation (the paper's swings, defined on the camera's Euler angles)
+    is kept as measured. ``upright_deg``: the start-relative angles of the upright pose.
     """
     from walkmon.consts import gravity_angles_deg_from_gravity, rotation_from_angles_deg
 
@@ -133,9 +148,117 @@ def heading_free_angles(
     u = np.asarray(upright_deg, dtype=float).reshape(3)
     m = rotation_from_angles_deg(a[:, 0], a[:, 1], a[:, 2])
     ms = rotation_from_angles_deg(u[0], u[1], u[2])
-    g = np.einsum("nji,j->ni", m, ms @ np.array([0.0, 1.0, 0.0]))
+    v = ms @ np.array([0.0, 1.0, 0.0]) if vertical is None else np.asarray(vertical, dtype=float).reshape(3)
+    v = v / np.linalg.norm(v)
+    g_u = ms.T @ v  # gravity in the camera frame at the upright pose
+    bx = np.array([1.0, 0.0, 0.0]) - g_u[0] * g_u
+    bx /= np.linalg.norm(bx)
+    basis = np.stack([bx, g_u, np.cross(bx, g_u)])  # rows: level x, down, level forward (camera frame, upright)
+    g = np.einsum("nji,j->ni", m, v) @ basis.T
     tilt = gravity_angles_deg_from_gravity(g)
     return slow_offset(t_s, a, np.column_stack([tilt[:, 0], a[:, 1], tilt[:, 1]]))
+
+
+#: Turns' axes that agree within this make gravity's direction from turns trusted (:class:`Vertical`), degrees:
+#: the same-posture accuracy of one turn on the simulator is 0.33 deg (median), 1.9 deg (worst).
+VERTICAL_AGREE_DEG = 3.0
+
+
+@dataclass(frozen=True, slots=True)
+class Vertical:
+    """Gravity's direction (down) in the start frame found from the axes of the wearer's turns: ``down`` (3,),
+    the ``n_turns`` used, their total angle in degrees, ``spread_deg`` (the largest angle between two turns'
+    axes; 0 for one turn) and ``verified``: two or more turns agree within :data:`VERTICAL_AGREE_DEG`. A camera's
+    tilt on the trunk is the same in every turn; a change of posture across a turn, or the video's drift in it,
+    is that turn's own and tilts its axis by about half of it. One turn alone cannot tell them apart."""
+
+    down: NDArray[np.float64]
+    n_turns: int
+    total_turn_deg: float
+    spread_deg: float
+    verified: bool
+
+    def camera_tilt_deg(self, upright_deg: ArrayLike) -> NDArray[np.float64]:
+        """The camera's (pitch, roll) from level at the upright pose (start-relative angles ``upright_deg``)."""
+        from walkmon.consts import gravity_angles_deg_from_gravity, rotation_from_angles_deg
+
+        u = np.asarray(upright_deg, dtype=float).reshape(3)
+        return gravity_angles_deg_from_gravity(rotation_from_angles_deg(u[0], u[1], u[2]).T @ self.down)
+
+
+def turn_axis(
+    t_s: ArrayLike, angles_deg: ArrayLike, start_s: float, end_s: float, *, margin_s: float = 0.3,
+    window_s: float = 1.2,
+) -> tuple[NDArray[np.float64], float] | None:
+    """``(axis, angle in degrees)`` of one turn in the start frame of start-relative angles: the rotation from the
+    camera's mean pose over ``window_s`` ending ``margin_s`` before ``start_s`` to its mean pose over ``window_s``
+    starting ``margin_s`` after ``end_s`` (``R_after R_before^T``; the means over about a stride average the
+    gait's sway out), its axis signed to point down (+y of the start frame). Exact when the trunk's posture is
+    the same on both sides; a posture change across the turn tilts the axis by about half of it (the turn's own
+    frame-to-frame rotation, tried as a cross-check, was less accurate on the simulator's walks without one: 4-6
+    deg worst against 1.9). None when either window holds less than half its length of samples."""
+    from walkmon.consts import rotation_from_angles_deg
+
+    t = np.asarray(t_s, dtype=float)
+    a = np.asarray(angles_deg, dtype=float)
+    before = (t >= start_s - margin_s - window_s) & (t < start_s - margin_s)
+    after = (t > end_s + margin_s) & (t <= end_s + margin_s + window_s)
+    if before.sum() < 3 or after.sum() < 3 or np.ptp(t[before]) < 0.5 * window_s or np.ptp(t[after]) < 0.5 * window_s:
+        return None
+
+    def mean_pose(m: NDArray[np.bool_]) -> NDArray[np.float64]:
+        u, _, vt = np.linalg.svd(rotation_from_angles_deg(a[m, 0], a[m, 1], a[m, 2]).mean(axis=0))
+        if np.linalg.det(u @ vt) < 0:
+            u[:, -1] *= -1
+        return u @ vt
+
+    q = mean_pose(after) @ mean_pose(before).T
+    angle = math.acos(min(1.0, max(-1.0, (float(np.trace(q)) - 1.0) / 2.0)))
+    w, vecs = np.linalg.eig(q)
+    ax = np.real(vecs[:, int(np.argmin(np.abs(w - 1.0)))])
+    ax /= np.linalg.norm(ax)
+    return (ax if ax[1] >= 0 else -ax), math.degrees(angle)
+
+
+def vertical_from_axes(
+    axes: list[tuple[NDArray[np.float64], float]], agree_deg: float = VERTICAL_AGREE_DEG
+) -> Vertical | None:
+    """:class:`Vertical` from turns' ``(axis, angle_deg)`` (:func:`turn_axis`): the axes summed weighted by
+    ``sin(angle / 2)``; ``verified`` when two or more agree within ``agree_deg``; None without an axis."""
+    if not axes:
+        return None
+    down = np.sum([math.sin(math.radians(0.5 * ang)) * ax for ax, ang in axes], axis=0)
+    down /= np.linalg.norm(down)
+    spread = max((math.degrees(math.acos(min(1.0, float(np.dot(p, q))))) for i, (p, _) in enumerate(axes)
+                  for q, _ in axes[i + 1:]), default=0.0)
+    return Vertical(down, len(axes), float(sum(ang for _, ang in axes)), spread,
+                    len(axes) >= 2 and spread <= agree_deg)
+
+
+def vertical_from_turns(
+    t_s: ArrayLike, angles_deg: ArrayLike, turns: Any, *, min_turn_deg: float = 60.0, margin_s: float = 0.3,
+    window_s: float = 1.2,
+) -> Vertical | None:
+    """Gravity's direction in the start frame from the turns of a camera's start-relative angles, or None.
+
+    A wearer turns about the vertical: the rotation from the camera's mean pose just before a turn to its mean
+    pose just after (:func:`turn_axis`) has gravity as its axis whatever the camera's tilt on the trunk, when the
+    trunk's posture is the same on both sides. The means are over ``window_s`` (about a stride, so that the
+    gait's sway averages out), ``margin_s`` outside the turn. Turns of at least ``min_turn_deg`` are used (a
+    small rotation's axis is poorly defined), their axes summed weighted by ``sin(turn / 2)``
+    (:func:`vertical_from_axes`). None without such a turn. On simulated walks (4 walk types, 8 seeds, mounts
+    0-20 deg; the true angles) the direction was within 0.33 deg of the truth (median; 90th percentile 0.64,
+    worst 1.9 deg); with a change of posture across a turn (normal to bend, 15 deg) up to 10 deg off, which only
+    a second turn can reveal (``verified``). An error of the direction shows after a turn of ``phi`` as about
+    ``2 sin(phi / 2)`` times itself in the tilt."""
+    axes = []
+    for u in turns:
+        if abs(float(u.angle_deg)) < min_turn_deg:
+            continue
+        r = turn_axis(t_s, angles_deg, u.start_s, u.end_s, margin_s=margin_s, window_s=window_s)
+        if r is not None and r[1] >= 0.5 * min_turn_deg:
+            axes.append(r)
+    return vertical_from_axes(axes)
 
 
 def slow_offset(t_s: ArrayLike, raw: NDArray[np.float64], target: NDArray[np.float64], span_s: float = 2.5) -> NDArray:
@@ -153,19 +276,23 @@ def slow_offset(t_s: ArrayLike, raw: NDArray[np.float64], target: NDArray[np.flo
 
 
 def _upright(
-    t: NDArray, a: NDArray, seg: Segmentation, abs_deg: NDArray | None, s: SessionSettings
+    t: NDArray, a: NDArray, seg: Segmentation, abs_deg: NDArray | None, s: SessionSettings,
+    tilt: NDArray | None = None,
 ) -> tuple[NDArray[np.float64], str, tuple[float, float] | None]:
     """Upright (pitch, yaw, roll) reference in the angles' frame, how it was found, and the standing phase.
 
     A still phase is taken for standing only when its tilt is within ``still_tilt_deg`` of the walking
-    posture (the median over the bouts; gravity pitch/roll with an IMU, else the start-relative angles): a
-    person sitting on a bench, lying or bent down is still too, and taking that for upright would read every
-    walk as tilted by the seat's angle."""
+    posture (the median over the bouts; gravity pitch/roll with an IMU, else ``tilt``, the heading-free tilt
+    from the start when the wearer turns, else the start-relative angles): a person sitting on a bench, lying or
+    bent down is still too, and taking that for upright would read every walk as tilted by the seat's angle."""
     act = np.asarray(seg.activity)
     hop = float(seg.timeline_t_s[1] - seg.timeline_t_s[0]) if len(seg.timeline_t_s) > 1 else 0.1
     runs = _runs(act == "standing")
     has_abs = abs_deg is not None and np.isfinite(abs_deg).all(axis=1).mean() > 0.5
-    tilt = abs_deg[:, :2] if has_abs and abs_deg is not None else a[:, [0, 2]]
+    if has_abs and abs_deg is not None:
+        tilt = abs_deg[:, :2]
+    elif tilt is None:
+        tilt = a[:, [0, 2]]
     in_bouts = np.zeros(t.shape, bool)
     for b in seg.bouts:
         in_bouts |= (t >= b.start_s) & (t <= b.end_s)
@@ -255,7 +382,8 @@ def _standing_anchors(
 
 
 def _reference_model(
-    t: NDArray, a: NDArray, seg: Segmentation, stand: tuple[float, float] | None, s: SessionSettings
+    t: NDArray, a: NDArray, seg: Segmentation, stand: tuple[float, float] | None, s: SessionSettings,
+    vertical_deg: float = 0.0,
 ) -> tuple[NDArray, ReferenceUncertainty, int]:
     """The video's pitch/roll drift at every sample and how uncertain it is after turns.
 
@@ -268,6 +396,8 @@ def _reference_model(
     each of which may add up to ``turn_reference_deg``: from one side its drift is that side's, within
     +-n x ``turn_reference_deg``; from both, the middle of the two intervals' overlap, within half of it.
     Without any standing phase the first frame is the reference (assumed upright) for the first stretch only.
+    ``vertical_deg``: how uncertain gravity's direction is (:func:`_vertical_uncertainty`); after a turn it reads
+    as up to twice itself in the tilt, so each turn's bound becomes ``hypot(turn_reference_deg, 2 vertical_deg)``.
     Returns the drift (N, 2), the uncertainty and how many standing phases re-referenced the angles."""
     n = t.size
     drift = np.zeros((n, 2))
@@ -285,7 +415,7 @@ def _reference_model(
         by_stretch.setdefault(int(np.searchsorted(mids, ta)), []).append((ta, d))
     known = sorted(by_stretch)
     reasons: list[str] = []
-    delta = s.turn_reference_deg
+    delta = math.hypot(s.turn_reference_deg, 2.0 * vertical_deg)
     for k in range(n_st):
         m = stretch == k
         if not m.any():
@@ -322,7 +452,10 @@ def _reference_model(
         where = ", ".join(f"t={v:.1f} s" for v in sorted(via))
         reasons.append(f"the video's upright reference is uncertain across the turn{'s' if len(via) > 1 else ''} "
                        f"at {where} (no standing phase in this straight stretch to re-reference it; each turn may "
-                       f"move the video's pitch and roll by up to {delta:g} deg)")
+                       f"move the video's pitch and roll by up to {delta:.3g} deg"
+                       + (f", gravity's direction from the turns being uncertain by {vertical_deg:.1f} deg: one turn "
+                          "cannot tell the camera's tilt on the trunk from a change of posture in it"
+                          if vertical_deg > 0 else "") + ")")
         why[m] = len(reasons) - 1
     return drift, ReferenceUncertainty(unc, why, tuple(reasons)), len(anchors) - 1
 
@@ -337,11 +470,12 @@ def _mount_uncertainty(t: NDArray, deg: float) -> ReferenceUncertainty:
 
 
 def _rereference(
-    t: NDArray, a: NDArray, seg: Segmentation, stand: tuple[float, float] | None, s: SessionSettings
+    t: NDArray, a: NDArray, seg: Segmentation, stand: tuple[float, float] | None, s: SessionSettings,
+    vertical_deg: float = 0.0,
 ) -> tuple[NDArray, str, ReferenceUncertainty]:
     """Video angles with the drift of :func:`_reference_model` removed, a note for the reference's source text,
     and the uncertainty left."""
-    drift, unc, n_re = _reference_model(t, a, seg, stand, s)
+    drift, unc, n_re = _reference_model(t, a, seg, stand, s, vertical_deg)
     out = a.copy()
     out[:, 0] -= drift[:, 0]
     out[:, 2] -= drift[:, 1]
@@ -563,12 +697,31 @@ def analyze_session(
     seg = segment(sig, activity_settings)
     s = session_settings
     has_abs = absd is not None and np.isfinite(absd).all(axis=1).mean() > 0.5
+    # video: gravity's direction from the axes of the turns (a camera tilted on the trunk otherwise reads its
+    # tilt as posture once the wearer has turned)
+    vert = None if has_abs or not session_settings.turn_vertical else vertical_from_turns(t, a, seg.turns)
+    # the angles in a level frame: the camera's frame at the start turned level (gravity's direction from the IMU
+    # or the turns), so that pitch, yaw and roll (swings, the step rhythm, the heading rate) are those of the
+    # trunk and not a tilted camera's mix of them
+    down = _start_down(a, absd) if has_abs and absd is not None else (None if vert is None else vert.down)
+    level = None if down is None else level_basis(down)
+    if level is not None:
+        a = level_frame_angles(a, level)
+        if imu is None:  # the activity from the level angles
+            sig = signals_from_angles(t, a, activity_settings)
+            seg = segment(sig, activity_settings)
+    v_level = None if level is None else np.array([0.0, 1.0, 0.0])
     if reference_deg is not None:
-        ref, ref_source = np.asarray(reference_deg, dtype=float).reshape(3), "given (the live monitor's calibration)"
-        stand = None
+        ref = np.asarray(reference_deg, dtype=float).reshape(3)
+        if level is not None:
+            ref = level_frame_angles(ref[None, :], level)[0]
+        ref_source, stand = "given (the live monitor's calibration)", None
     else:
-        ref, ref_source, stand = _upright(t, a, seg, absd, s)
-    a, ref_out, ref_source, unc = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s)
+        tilt = None if has_abs or not seg.turns else heading_free_angles(t, a, a[0], v_level)[:, [0, 2]]
+        ref, ref_source, stand = _upright(t, a, seg, absd, s, tilt=tilt)
+    ref_camera = ref if level is None else level_frame_angles(ref[None, :], level.T)[0]  # in the input's frame
+    a, ref_out, ref_source, unc = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s,
+                                                down=v_level, vertical_deg=_vertical_uncertainty(vert, ref_camera))
     if unc is None and has_abs and stand is None and reference_deg is None and base is None \
             and s.mount_tilt_deg > 0:
         unc = _mount_uncertainty(t, s.mount_tilt_deg)
@@ -594,7 +747,8 @@ def analyze_session(
         IndicatorStatus.NO_GAIT if seg.bouts or t.size > 16 else IndicatorStatus.TOO_SHORT)
     session = {
         "upright_reference": {"source": ref_source, "pitch_deg": _num(ref_out[0]), "roll_deg": _num(ref_out[1]),
-                              "frame": "gravity pitch/roll" if has_abs else "start-relative angles"},
+                              "frame": "gravity pitch/roll" if has_abs else "start-relative angles",
+                              "vertical": _vertical_doc(vert, ref_camera, has_abs)},
         "input": {"activity_from": {"imu": "IMU (gyroscope + accelerometer)", "acc": "accelerometer only",
                                     "angles": "camera angles"}[sig.kind],
                   "notes": list(seg.notes) + (["no yaw: yaw indicators are null"] if no_yaw else [])},
@@ -622,9 +776,87 @@ def analyze_session(
     return SessionAnalysis(ind, seg, ref, ref_source, tuple(seg_docs), rows)
 
 
+def _vertical_doc(vert: Vertical | None, ref: NDArray, has_abs: bool) -> dict[str, Any]:
+    """indicators.json ``upright_reference.vertical``: where the direction of gravity came from and, from turns,
+    the camera's tilt from level at the upright pose (its tilt on the trunk when the reference is a standing
+    phase)."""
+    if has_abs:
+        return {"source": "IMU gravity"}
+    if vert is None:
+        return {"source": "assumed: the camera level on the trunk (no turn of 60 deg or more to measure it)"}
+    tilt = vert.camera_tilt_deg(ref)
+    how = (f"their axes agree within {vert.spread_deg:.1f} deg" if vert.verified else
+           "one turn: not verified by a second" if vert.n_turns == 1 else
+           f"their axes disagree by {vert.spread_deg:.1f} deg: not verified")
+    return {"source": f"from {vert.n_turns} turn{'s' if vert.n_turns > 1 else ''} ({vert.total_turn_deg:.0f} deg in all; "
+                      f"{how})",
+            "verified": vert.verified, "uncertainty_deg": _num(_vertical_uncertainty(vert, ref), 2),
+            "camera_pitch_deg": _num(tilt[0], 2), "camera_roll_deg": _num(tilt[1], 2)}
+
+
+def _vertical_uncertainty(vert: Vertical | None, ref: NDArray) -> float:
+    """How far gravity's direction from turns may be off, degrees: the turns' disagreement when two or more agree
+    (``verified``); else also the angle between it and the camera assumed level at the upright pose: a single turn
+    (or turns that disagree) cannot tell a camera tilted on the trunk from a change of posture in the turn, so
+    either may hold. 0 without turns (the camera is then assumed level, as before turns existed here)."""
+    if vert is None:
+        return 0.0
+    if vert.verified:
+        return float(vert.spread_deg)
+    from walkmon.consts import rotation_from_angles_deg
+
+    level = rotation_from_angles_deg(ref[0], ref[1], ref[2]) @ np.array([0.0, 1.0, 0.0])
+    beta = math.degrees(math.acos(min(1.0, float(np.dot(level, vert.down)))))
+    return max(float(vert.spread_deg), beta)
+
+
+def level_basis(down: ArrayLike) -> NDArray[np.float64]:
+    """A level frame in the start frame's coordinates, as columns: the camera's x made horizontal, ``down``
+    (gravity's direction), and forward (their cross product): the start camera turned level with the least
+    rotation about its optical axis."""
+    d = np.asarray(down, dtype=float).reshape(3)
+    d = d / np.linalg.norm(d)
+    x = np.array([1.0, 0.0, 0.0]) - d[0] * d
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, d, np.cross(x, d)])
+
+
+def level_frame_angles(angles_deg: ArrayLike, basis: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Start-relative camera angles (N, 3) re-expressed as the angles of the level frame that rides with the
+    camera (:func:`level_basis`, fixed on the camera): ``L^T M(t) L``. The identity for a camera level at the
+    start; for a camera tilted on the trunk, the trunk's own pitch, yaw and roll (a tilted camera's Euler angles
+    mix them: its yaw oscillation and turns show in its roll and pitch). Yaw stays continuous."""
+    from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
+
+    a = np.asarray(angles_deg, dtype=float).reshape(-1, 3)
+    m = rotation_from_angles_deg(a[:, 0], a[:, 1], a[:, 2])
+    out = angles_deg_from_rotation(basis.T @ m @ basis)
+    if out.shape[0] > 1:
+        out[:, 1] = np.degrees(np.unwrap(np.radians(out[:, 1])))
+        # keep yaw on the input's turn count (unwrap is relative to the first sample)
+        out[:, 1] += 360.0 * np.round((a[0, 1] - out[0, 1]) / 360.0)
+    return out
+
+
+def _start_down(a: NDArray, absd: NDArray) -> NDArray[np.float64] | None:
+    """Gravity's direction in the start frame from gravity-referenced (pitch_abs, roll_abs) (an IMU): the median
+    over the recording of each frame's gravity turned into the start frame."""
+    from walkmon.consts import rotation_from_angles_deg
+
+    ok = np.isfinite(absd[:, :2]).all(axis=1) & np.isfinite(a).all(axis=1)
+    if ok.sum() < 3:
+        return None
+    p, r = np.radians(absd[ok, 0]), np.radians(absd[ok, 1])
+    g = np.column_stack([np.sin(r), np.cos(r) * np.cos(p), -np.cos(r) * np.sin(p)])
+    m = rotation_from_angles_deg(a[ok, 0], a[ok, 1], a[ok, 2])
+    v = np.median(np.einsum("nij,nj->ni", m, g), axis=0)
+    n = float(np.linalg.norm(v))
+    return v / n if n > 0.5 else None
+
+
 def _heading_free(
     t: NDArray, a: NDArray, absd: NDArray | None, ref: NDArray, ref_source: str, stand: tuple[float, float] | None,
-    seg: Segmentation, s: SessionSettings,
+    seg: Segmentation, s: SessionSettings, *, down: NDArray | None = None, vertical_deg: float = 0.0,
 ) -> tuple[NDArray, NDArray, str, ReferenceUncertainty | None]:
     """Heading-free inclinations: gravity's pitch/roll with an IMU (``absd``, when mostly finite), else the tilt
     from the upright pose (re-referenced at later still phases, :func:`_reference_model`). Returns the angles,
@@ -641,8 +873,8 @@ def _heading_free(
             up_abs = np.array([np.median(gp[m]), np.median(gr[m])])
         a = slow_offset(t, a, np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]]))
         return a, up_abs, ref_source, None
-    a = heading_free_angles(t, a, ref)
-    a, note, unc = _rereference(t, a, seg, stand, s)
+    a = heading_free_angles(t, a, ref, down)
+    a, note, unc = _rereference(t, a, seg, stand, s, vertical_deg)
     return a, ref[[0, 2]], ref_source + note, unc
 
 
