@@ -252,3 +252,38 @@ def test_paper_method_on_a_short_stretch(simulated_walk):
     err = est[:n] - truth[:n]
     assert all(o.model in ("identity", "essential", "hold") for o in out)
     assert np.abs(err).max() < 5.0  # chained 5-point estimates drift; no flips, no explosions
+
+
+# ------------------------------------------------------------------ a camera tilted down on the chest: the ground
+@pytest.fixture(scope="module")
+def tilted_walk(tmp_path_factory):
+    simulate = pytest.importorskip("walkmon.simulate").simulate
+    out = tmp_path_factory.mktemp("rotation_tilted")
+    # the chest mount points the camera 25 deg down: the ground fills most of the view, one plane
+    return simulate(out, walk="mount:-25,normal", seconds=10.0, seed=3, width=320, height=240, stand_s=1.0)
+
+
+def _run_settings(result, **overrides):
+    from walkmon.drivers.video_file import VideoFile
+
+    cam = read_camera_yaml(result.camera_path)
+    est = RotationEstimator(cam, RotationSettings(**overrides))
+    with VideoFile(result.video_path) as video:
+        out = [est.push(frame, t_s) for t_s, frame in video]
+    return np.array([o.angles_deg for o in out]), out
+
+
+def test_a_camera_looking_down_at_the_ground_keeps_its_pitch(tilted_walk):
+    t, truth = _truth_relative(tilted_walk.truth_path)
+    est, out = _run_settings(tilted_walk)
+    n = min(len(est), len(truth))
+    rmse = np.sqrt(np.mean((est[:n] - truth[:n]) ** 2, axis=0))
+    assert rmse.max() < 0.5, rmse
+    flagged = sum(o.status is not EstimateStatus.OK for o in out)
+    assert flagged < 0.1 * len(out), flagged
+    # without the ground's plane solution the frames were flagged as planar-ambiguous and the rotation-only
+    # fallback took the walk's translation for pitch
+    est0, out0 = _run_settings(tilted_walk, ground_plane=False)
+    rmse0 = np.sqrt(np.mean((est0[:n] - truth[:n]) ** 2, axis=0))
+    assert sum(o.reason == "planar_ambiguity" for o in out0) > 0.3 * len(out0)
+    assert rmse0[0] > 2 * rmse[0]

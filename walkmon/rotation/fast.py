@@ -52,6 +52,14 @@ _DISAGREE_PARALLAX_RATIO = 2.0
 _PLANAR_RESIDUAL_RATIO = 5.0
 _PLANAR_AMBIGUITY_DEG = 1.0
 _PLANAR_AMBIGUITY_TRACK_PX = 4.0
+#: The ground's plane solution: its normal within this of the vertical (deg; the vertical known to a few degrees,
+#: the camera's start assumed level when no vertical lines were seen) and every other solution's at least
+#: ``_OTHER_NORMAL_DEG`` from it (see ``FastEngine._ground_solution``). Set a priori, not tuned.
+_GROUND_NORMAL_DEG = 30.0
+_OTHER_NORMAL_DEG = 50.0
+#: After this many plane solutions recognised as the ground, their mean normal (first frame's axes) replaces the
+#: vertical lines' or the first frame's vertical as the one the ground's normal is compared with.
+_GROUND_LEARNED_MIN = 10
 #: A second essential refinement, started across the view, is tried when the camera looks more than this (deg)
 #: away from the walker's heading (the optical axis low-passed over _HEADING_TAU_S); it replaces the first when
 #: its robust cost is below _ALT_COST_RATIO times the first's. See FastEngine._essential_fit.
@@ -128,6 +136,10 @@ class FastEngine:
         # _essential_fit); None until a frame was accepted
         self._travel: NDArray[np.float64] | None = None
         self._t_prev: float | None = None
+        # the ground's normal (down, first frame's axes) from the plane solutions recognised as the ground, summed
+        # (see _ground_solution): the camera's first frame is rarely level on a chest
+        self._ground_sum = np.zeros(3)
+        self._ground_n = 0
         self._last_step: NDArray[np.float64] | None = None  # the last accepted frame-to-frame rotation
         # rolling shutter (camera.readout_s > 0): the angular rate of the last accepted step (rad/s, camera axes)
         # and the rate this frame's tracks are moved to the frame's time with (None: not moved); see shutter.py
@@ -408,10 +420,75 @@ class FastEngine:
         # below a few tracking pixels the two solutions are within the tracking noise (160x120 tracking flagged
         # 6 % of a foot-drag walk's frames, all within 1 deg of the truth, with a fixed 1 deg)
         threshold = max(_PLANAR_AMBIGUITY_DEG, math.degrees(_PLANAR_AMBIGUITY_TRACK_PX * self._sx / self._focal))
+        ground = self._ground_solution(hom, pose) if self.s.ground_plane else None
+        if ground is not None:
+            # the ground walked along: of the plane's two solutions the one whose normal is the vertical is the
+            # true one, so the plane leaves no ambiguity; the essential fit stands when it agrees with it
+            return geo.rotation_angle_deg(pose.rotation.T @ ground) > threshold
         # two visible plane solutions (the images cannot tell), or the (degenerate) essential fit strayed from
         # the plane's rotation: flagged. Reporting the homography's own rotation instead was tried: its
         # single-frame DLT is too noisy (night: 2.4 deg frame-to-frame jumps, raw yaw 2.2 -> 6.9 deg).
         return max(gap, hom.ambiguity_deg) > threshold
+
+    def _ground_refit(
+        self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], pose: geo.PoseFit, mask: NDArray[np.bool_],
+    ) -> geo.PoseFit | None:
+        """The essential model refined from the ground's plane solution, when the tracks lie on the ground (one
+        plane solution with a vertical normal, :meth:`_ground_solution`) and the free essential fit strayed from
+        it (the plane leaves the essential cost a flat valley; its start, the rotation-only fit, is biased by the
+        walker's translation over the near ground): returned when it lands within the planar threshold of the
+        ground's rotation, else None (the frame is flagged). Without it a walker bent forward with the camera
+        tilted down (45 deg below level) was flagged frame after frame, the rotation-only fallback drifted the
+        pitch and the drifted orientation then no longer recognised the ground: 100 deg of error."""
+        if not self.s.ground_plane:
+            return None
+        hom = geo.homography_fit(q_kf, q_cur, self._focal, pose.rotation, inlier_px=self.s.inlier_px, method="dlt",
+                                 use=mask)
+        if hom is None:
+            return None
+        ground = self._ground_solution(hom, pose)
+        if ground is None:
+            return None
+        sigma = self.s.feature_noise_px
+        refit = geo.refine_relative_pose(q_kf, q_cur, self._focal, ground, None, scale_px=sigma * 2,
+                                         inlier_px=self.s.inlier_px, iterations=4)
+        threshold = max(_PLANAR_AMBIGUITY_DEG, math.degrees(_PLANAR_AMBIGUITY_TRACK_PX * self._sx / self._focal))
+        return refit if geo.rotation_angle_deg(refit.rotation.T @ ground) <= threshold else None
+
+    def _ground_solution(self, hom: geo.HomographyFit, pose: geo.PoseFit) -> NDArray[np.float64] | None:
+        """The rotation of the plane solution that is the ground, when exactly one visible solution has its
+        normal within ``_GROUND_NORMAL_DEG`` of the vertical and every other is at least ``_OTHER_NORMAL_DEG``
+        from it; else None (a wall or door ahead, a facade beside: their normals are horizontal).
+
+        A camera tilted down on the chest sees mostly the ground: a plane, so the essential fit is ill-posed and
+        was flagged (``planar_ambiguity``) and replaced by the rotation-only fit, whose bias by the walker's
+        translation then drifted the pitch (a 20 s walk with the camera 25 deg down: 444 of 600 frames flagged,
+        raw pitch error 3.0 deg against 0.05 level). The plane's two solutions differ in their normals: the
+        true one is the ground's, the vertical; the other lies near the direction of travel. The vertical in
+        the camera: the vertical lines' world vertical when measured (:mod:`walkmon.rotation.vertical`), else the
+        first frame's y axis, through the current orientation; tens of degrees off still pick the right one. Once
+        ``_GROUND_LEARNED_MIN`` solutions were recognised, their mean normal is that vertical: a chest camera's
+        first frame may be 25 deg from level, and a walker bending forward adds its drift to that."""
+        if len(hom.solutions) < 2:
+            return None
+        orientation = self._R_kf @ pose.rotation
+        if self._ground_n >= _GROUND_LEARNED_MIN:
+            world = self._ground_sum / float(np.linalg.norm(self._ground_sum))
+        elif self._vertical is not None and self._vertical.world_vertical is not None:
+            world = self._vertical.world_vertical
+        else:
+            world = np.array([0.0, 1.0, 0.0])
+        down = orientation.T @ world
+        down /= float(np.linalg.norm(down))
+        angles = [math.degrees(math.acos(min(1.0, abs(float(n @ down))))) for _, n in hom.solutions]
+        near = [i for i, a in enumerate(angles) if a <= _GROUND_NORMAL_DEG]
+        if len(near) != 1 or any(a < _OTHER_NORMAL_DEG for i, a in enumerate(angles) if i != near[0]):
+            return None
+        n = hom.solutions[near[0]][1]
+        n_world = orientation @ (n if float(n @ down) >= 0 else -n)
+        self._ground_sum += n_world
+        self._ground_n += 1
+        return hom.solutions[near[0]][0]
 
     def _hold(self, t_s: float, status: EstimateStatus, reason: str, n_tracks: int = 0) -> RotationEstimate:
         return make_estimate(t_s, self._orientation, n_inliers=0, model="hold", status=status, n_tracks=n_tracks,
@@ -635,8 +712,13 @@ class FastEngine:
             g_rot = geo.gric(rot.residuals_px[mask], sigma, 2, 3)
             g_ess = geo.gric(pose.residuals_px[mask], sigma, 3, 5)
             if g_ess < g_rot and self._plane_ambiguous(q_kf, q_cur, pose, mask):
-                fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
-                           reason="planar_ambiguity")
+                ground = self._ground_refit(q_kf, q_cur, pose, mask)
+                if ground is not None:  # the ground's plane solution, refined by the essential model: it stands
+                    fit = _Fit("essential", ground.rotation, np.abs(ground.residuals_px), ground.inliers,
+                               EstimateStatus.OK)
+                else:
+                    fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
+                               reason="planar_ambiguity")
             elif g_ess < g_rot:
                 if start == "ambiguous":  # looking sideways to the heading, both starts fit and disagree
                     fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,

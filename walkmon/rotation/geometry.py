@@ -382,6 +382,9 @@ class HomographyFit:
     #: plane leaves the rotation (walking along the ground keeps two, ~ baseline/height apart; a facade
     #: passed sideways has one visible solution).
     ambiguity_deg: float = 0.0
+    #: The decomposition's solutions whose plane faces the camera: (rotation, unit plane normal in view 1).
+    #: Knowing the plane's normal (the ground's is the vertical) picks the true one of two.
+    solutions: tuple[tuple[NDArray[np.float64], NDArray[np.float64]], ...] = ()
 
 
 def homography_fit(
@@ -430,8 +433,10 @@ def homography_fit(
     # points it was fitted to (n . q1 > 0). A facade passed sideways has a second solution whose plane would
     # be seen edge-on with points on both sides: not visible, dropped. The ground walked along keeps both.
     pts = b if method != "dlt" or use is None else b[np.asarray(use, bool)]
-    visible = [np.asarray(r, dtype=float) for r, nrm in zip(Rs, Ns, strict=True)
-               if np.mean(pts @ np.asarray(nrm, dtype=float).ravel() > 0) >= _VISIBLE_FRACTION]
+    sols = [(np.asarray(r, dtype=float), np.asarray(nrm, dtype=float).ravel() / max(np.linalg.norm(nrm), 1e-12))
+            for r, nrm in zip(Rs, Ns, strict=True)
+            if np.mean(pts @ np.asarray(nrm, dtype=float).ravel() > 0) >= _VISIBLE_FRACTION]
+    visible = [r for r, _ in sols]
     cands = visible or [np.asarray(r, dtype=float) for r in Rs]
     R = select_nearest_rotation(cands, rotation_prior)
     spread = max((rotation_angle_deg(A.T @ B) for A in cands for B in cands), default=0.0)
@@ -439,7 +444,7 @@ def homography_fit(
     z = np.where(np.abs(p[:, 2]) < 1e-9, 1e-9, p[:, 2])
     d = p[:, :2] / z[:, None] - p0
     r = focal_px * np.sqrt(np.sum(d * d, axis=1))
-    return HomographyFit(R, H, r, r < inlier_px, spread)
+    return HomographyFit(R, H, r, r < inlier_px, spread, tuple(sols))
 
 
 def pose_rotation_std_deg(

@@ -80,7 +80,9 @@ class RotationSettings:
         direction, :mod:`walkmon.rotation.vertical`); ``vertical_drift_deg_s``: how fast the odometry's tilt error
         is assumed to grow (the correction's process noise, deg after one second). ``heading_reference`` (needs
         ``vertical_reference``): correct yaw drift at keyframes from horizontal lines of a Manhattan world
-        (streets, corridors: :mod:`walkmon.rotation.heading`), modulo 90 deg.
+        (streets, corridors: :mod:`walkmon.rotation.heading`), modulo 90 deg. ``ground_plane``: where the tracks lie
+        on one plane, take the plane solution whose normal is the vertical as the ground's (a camera tilted down
+        on the chest sees mostly ground) instead of flagging the frame ambiguous.
     both methods
         ``min_inliers``: fewer inliers than this holds the orientation. ``inlier_px``: inlier threshold.
         ``max_frame_rotation_deg``: a frame-to-frame change larger than this is rejected as implausible for a
@@ -107,6 +109,7 @@ class RotationSettings:
     vertical_reference: bool = True
     vertical_drift_deg_s: float = 0.03
     heading_reference: bool = True
+    ground_plane: bool = True
     feature_noise_px: float = 0.5
     min_inliers: int = 12
     inlier_px: float = 2.0
