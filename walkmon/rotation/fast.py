@@ -57,9 +57,6 @@ _PLANAR_AMBIGUITY_TRACK_PX = 4.0
 #: ``_OTHER_NORMAL_DEG`` from it (see ``FastEngine._ground_solution``). Set a priori, not tuned.
 _GROUND_NORMAL_DEG = 30.0
 _OTHER_NORMAL_DEG = 50.0
-#: After this many plane solutions recognised as the ground, their mean normal (first frame's axes) replaces the
-#: vertical lines' or the first frame's vertical as the one the ground's normal is compared with.
-_GROUND_LEARNED_MIN = 10
 #: A second essential refinement, started across the view, is tried when the camera looks more than this (deg)
 #: away from the walker's heading (the optical axis low-passed over _HEADING_TAU_S); it replaces the first when
 #: its robust cost is below _ALT_COST_RATIO times the first's. See FastEngine._essential_fit.
@@ -136,10 +133,6 @@ class FastEngine:
         # _essential_fit); None until a frame was accepted
         self._travel: NDArray[np.float64] | None = None
         self._t_prev: float | None = None
-        # the ground's normal (down, first frame's axes) from the plane solutions recognised as the ground, summed
-        # (see _ground_solution): the camera's first frame is rarely level on a chest
-        self._ground_sum = np.zeros(3)
-        self._ground_n = 0
         self._last_step: NDArray[np.float64] | None = None  # the last accepted frame-to-frame rotation
         # rolling shutter (camera.readout_s > 0): the angular rate of the last accepted step (rad/s, camera axes)
         # and the rate this frame's tracks are moved to the frame's time with (None: not moved); see shutter.py
@@ -466,28 +459,20 @@ class FastEngine:
         raw pitch error 3.0 deg against 0.05 level). The plane's two solutions differ in their normals: the
         true one is the ground's, the vertical; the other lies near the direction of travel. The vertical in
         the camera: the vertical lines' world vertical when measured (:mod:`walkmon.rotation.vertical`), else the
-        first frame's y axis, through the current orientation; tens of degrees off still pick the right one. Once
-        ``_GROUND_LEARNED_MIN`` solutions were recognised, their mean normal is that vertical: a chest camera's
-        first frame may be 25 deg from level, and a walker bending forward adds its drift to that."""
+        first frame's y axis, through the current orientation; tens of degrees off still pick the right one (not
+        beyond 30: a camera 25 deg down whose wearer bends forward 20 deg is lost, see bench_rotation --mounts).
+        Learning the vertical from the recognised ground normals was tried: it brought those walks from 40-60 to
+        12-26 deg of error but accepted noisy ground fits in the night and fog clips (met* 2 -> 1 and 1 -> 0 of 5)."""
         if len(hom.solutions) < 2:
             return None
-        orientation = self._R_kf @ pose.rotation
-        if self._ground_n >= _GROUND_LEARNED_MIN:
-            world = self._ground_sum / float(np.linalg.norm(self._ground_sum))
-        elif self._vertical is not None and self._vertical.world_vertical is not None:
-            world = self._vertical.world_vertical
-        else:
-            world = np.array([0.0, 1.0, 0.0])
-        down = orientation.T @ world
+        world = (self._vertical.world_vertical if self._vertical is not None
+                 and self._vertical.world_vertical is not None else np.array([0.0, 1.0, 0.0]))
+        down = (self._R_kf @ pose.rotation).T @ world
         down /= float(np.linalg.norm(down))
         angles = [math.degrees(math.acos(min(1.0, abs(float(n @ down))))) for _, n in hom.solutions]
         near = [i for i, a in enumerate(angles) if a <= _GROUND_NORMAL_DEG]
         if len(near) != 1 or any(a < _OTHER_NORMAL_DEG for i, a in enumerate(angles) if i != near[0]):
             return None
-        n = hom.solutions[near[0]][1]
-        n_world = orientation @ (n if float(n @ down) >= 0 else -n)
-        self._ground_sum += n_world
-        self._ground_n += 1
         return hom.solutions[near[0]][0]
 
     def _hold(self, t_s: float, status: EstimateStatus, reason: str, n_tracks: int = 0) -> RotationEstimate:
