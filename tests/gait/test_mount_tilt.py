@@ -123,3 +123,17 @@ def test_live_monitor_learns_gravity_at_the_first_turn_and_raises_no_alert_after
         assert abs(h.posture_deg[0]) < 2.0 and abs(h.posture_deg[2]) < 2.0
         assert abs(abs(h.posture_deg[1]) - 180.0) < 10.0  # facing back, shown within +-180
         assert h.label == "normal", (h.t_s, h.label, h.reasons)
+
+
+def test_a_turn_whose_axis_disagrees_with_the_others_is_left_out() -> None:
+    from walkmon.consts import rotation_from_angles_deg
+    from walkmon.gait.session import vertical_from_axes
+
+    down = rotation_from_angles_deg(-15.0, 0.0, 2.0).T @ np.array([0.0, 1.0, 0.0])  # a camera 15 deg down
+    off = rotation_from_angles_deg(8.0, 0.0, 0.0) @ down  # a turn with a posture change: its axis 8 deg off
+    near = rotation_from_angles_deg(0.5, 0.0, -0.5) @ down
+    v = vertical_from_axes([(down, 180.0), (off, 180.0), (near, 90.0)])
+    assert v is not None and v.verified and v.n_turns == 2 and v.n_outliers == 1
+    assert _angle_deg(v.down, down) < 0.7
+    two = vertical_from_axes([(down, 180.0), (off, 180.0)])  # two that disagree: which one is right is unknown
+    assert two is not None and not two.verified and two.spread_deg == pytest.approx(8.0, abs=0.1)

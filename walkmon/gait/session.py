@@ -177,6 +177,8 @@ class Vertical:
     total_turn_deg: float
     spread_deg: float
     verified: bool
+    #: turns left out because their axes disagreed with the others' (a change of posture or drift in them)
+    n_outliers: int = 0
 
     def camera_tilt_deg(self, upright_deg: ArrayLike) -> NDArray[np.float64]:
         """The camera's (pitch, roll) from level at the upright pose (start-relative angles ``upright_deg``)."""
@@ -224,15 +226,26 @@ def vertical_from_axes(
     axes: list[tuple[NDArray[np.float64], float]], agree_deg: float = VERTICAL_AGREE_DEG
 ) -> Vertical | None:
     """:class:`Vertical` from turns' ``(axis, angle_deg)`` (:func:`turn_axis`): the axes summed weighted by
-    ``sin(angle / 2)``; ``verified`` when two or more agree within ``agree_deg``; None without an axis."""
+    ``sin(angle / 2)``; while three or more disagree by more than ``agree_deg``, the one farthest from their
+    mean is left out (a posture change or the video's drift in that turn: the mount is the same in every turn);
+    ``verified`` when two or more are left that agree. None without an axis."""
     if not axes:
         return None
-    down = np.sum([math.sin(math.radians(0.5 * ang)) * ax for ax, ang in axes], axis=0)
-    down /= np.linalg.norm(down)
-    spread = max((math.degrees(math.acos(min(1.0, float(np.dot(p, q))))) for i, (p, _) in enumerate(axes)
-                  for q, _ in axes[i + 1:]), default=0.0)
-    return Vertical(down, len(axes), float(sum(ang for _, ang in axes)), spread,
-                    len(axes) >= 2 and spread <= agree_deg)
+
+    def mean(items: list[tuple[NDArray[np.float64], float]]) -> NDArray[np.float64]:
+        v = np.sum([math.sin(math.radians(0.5 * ang)) * ax for ax, ang in items], axis=0)
+        return v / np.linalg.norm(v)
+
+    def spread(items: list[tuple[NDArray[np.float64], float]]) -> float:
+        return max((math.degrees(math.acos(min(1.0, float(np.dot(p, q))))) for i, (p, _) in enumerate(items)
+                    for q, _ in items[i + 1:]), default=0.0)
+
+    kept = list(axes)
+    while len(kept) > 2 and spread(kept) > agree_deg:
+        down = mean(kept)
+        kept.pop(int(np.argmax([float(np.dot(ax, -down)) for ax, _ in kept])))  # the farthest from the mean
+    return Vertical(mean(kept), len(kept), float(sum(ang for _, ang in kept)), spread(kept),
+                    len(kept) >= 2 and spread(kept) <= agree_deg, len(axes) - len(kept))
 
 
 def vertical_from_turns(
@@ -788,6 +801,8 @@ def _vertical_doc(vert: Vertical | None, ref: NDArray, has_abs: bool) -> dict[st
     how = (f"their axes agree within {vert.spread_deg:.1f} deg" if vert.verified else
            "one turn: not verified by a second" if vert.n_turns == 1 else
            f"their axes disagree by {vert.spread_deg:.1f} deg: not verified")
+    if vert.n_outliers:
+        how += f"; {vert.n_outliers} more left out, their axes off the others'"
     return {"source": f"from {vert.n_turns} turn{'s' if vert.n_turns > 1 else ''} ({vert.total_turn_deg:.0f} deg in all; "
                       f"{how})",
             "verified": vert.verified, "uncertainty_deg": _num(_vertical_uncertainty(vert, ref), 2),
