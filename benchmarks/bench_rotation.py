@@ -137,12 +137,14 @@ def metrics(t: np.ndarray, est: np.ndarray, truth: np.ndarray) -> dict:
     n = min(len(est), len(truth))
     t, est, truth = t[:n], est[:n], truth[:n]
     err = est - truth
+    err[:, 1] = (err[:, 1] + 180.0) % 360.0 - 180.0  # a yaw error is an angle: a lost track's 359 deg is -1
     derr = detrend(t, est) - detrend(t, truth)
     return {
         "frames": int(n),
         "detrended_rmse_deg": np.sqrt(np.mean(derr**2, axis=0)).round(4).tolist(),
         "raw_rmse_deg": np.sqrt(np.mean(err**2, axis=0)).round(4).tolist(),
-        "max_frame_error_deg": round(float(np.abs(np.diff(err, axis=0)).max()), 4) if n > 1 else 0.0,
+        "max_frame_error_deg": round(float(np.abs((np.diff(err, axis=0) + 180.0) % 360.0 - 180.0).max()), 4)
+        if n > 1 else 0.0,
         "end_drift_deg": err[-1].round(3).tolist(),
     }
 
