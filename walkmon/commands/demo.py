@@ -40,14 +40,21 @@ def _step(argv: list[str]) -> None:
 
 
 def _accuracy_lines(angles_csv: Path, truth_csv: Path) -> list[str]:
+    from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg  # noqa: PLC0415
     from walkmon.tables import read_table  # noqa: PLC0415
 
     est = read_table(angles_csv, ANGLE_COLUMNS)
     truth = read_table(truth_csv, TRUTH_COLUMNS)
     n = min(len(est["t"]), len(truth["t"]))
+    # the estimate is relative to the first frame; truth.csv is the camera in the world (a mount tilts its first row)
+    r = rotation_from_angles_deg(truth["pitch"][:n], truth["yaw"][:n], truth["roll"][:n])
+    rel = angles_deg_from_rotation(np.swapaxes(r[0], -1, -2) @ r)
+    rel[:, 1] = np.degrees(np.unwrap(np.radians(rel[:, 1])))
     lines = []
-    for axis in AXES:
-        err = est[axis][:n] - truth[axis][:n]
+    for k, axis in enumerate(AXES):
+        err = est[axis][:n] - rel[:, k]
+        if axis == "yaw":
+            err = (err + 180.0) % 360.0 - 180.0
         lines.append(f"  {axis:<5} RMSE {np.sqrt(np.mean(err**2)):.3f} deg, largest error {np.max(np.abs(err)):.3f} deg")
     return lines
 

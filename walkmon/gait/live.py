@@ -51,6 +51,10 @@ __all__ = [
 
 LABELS = ("normal", "bend", "left_shoulder_down", "right_foot_drag", "not_walking", "unclassified")
 
+#: The live stage keeps the axes of this many recent turns for gravity's direction (a long session's turns
+#: would otherwise grow its cost without bound).
+_MAX_TURN_AXES = 20
+
 
 @dataclass(frozen=True, slots=True)
 class LiveIndicatorSettings:
@@ -385,6 +389,9 @@ class LiveIndicatorStage:
         grid, u = resample_uniform(t, a, s.resample_hz)
         fs = s.resample_hz
         nan3 = (math.nan, math.nan, math.nan)
+        # the activity first: its segmentation learns gravity's direction from a turn that just ended, which the
+        # posture below then uses in the same hop
+        activity, span = self._activity(t, np.asarray(self._a, dtype=float), t_now)
         recent = t >= t_now - s.posture_window_s
         posture = tuple(float(v) for v in self._posture(t, recent)) if recent.any() else nan3
         walk_part = u[grid >= t_now - s.walking_window_s]
@@ -408,7 +415,6 @@ class LiveIndicatorStage:
                 if self._steady_walk(grid, u, fs, f_step):
                     asym = step_asymmetry_from_pitch(u[:, 0], fs, f_step)
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
-        activity, span = self._activity(t, np.asarray(self._a, dtype=float), t_now)
         walking = activity == "walking"
         label, reasons = "not_walking", (f"activity {activity}: no walking bout reaching the present",)
         if walking and span is not None:
@@ -458,21 +464,30 @@ class LiveIndicatorStage:
     def _learn_vertical(self, t: NDArray[np.float64], a: NDArray[np.float64], turns: tuple) -> None:
         """Add each turn of 60 deg or more, once it lies in the window with a stride's margin on both sides, to
         the turns that give gravity's direction (:func:`walkmon.gait.session.turn_axis`)."""
-        from walkmon.gait.session import turn_axis, vertical_from_axes  # noqa: PLC0415
+        from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
+        from walkmon.gait.session import turn_axis, vertical_from_axes, vertical_with_level  # noqa: PLC0415
 
         added = False
         for u in turns:
-            if u.end_s <= self._turns_done_s or abs(u.angle_deg) < 60.0 or u.end_s + 1.6 > t[-1]:
+            if u.start_s <= self._turns_done_s:
+                # a turn already taken (each hop's window finds it again, its end a little later): once only
+                self._turns_done_s = max(self._turns_done_s, u.end_s)
+                continue
+            if abs(u.angle_deg) < 60.0 or u.end_s + 1.6 > t[-1]:
                 continue
             r = turn_axis(t, a, u.start_s, u.end_s)
             if r is not None and r[1] >= 30.0:
-                self._turn_axes.append(r)
+                self._turn_axes = [*self._turn_axes, r][-_MAX_TURN_AXES:]
                 added = True
             self._turns_done_s = u.end_s
-        if added:  # one turn alone is taken too (a tilted chest camera is the rule, a posture change mid-turn
-            # the exception); turns that disagree by more than 10 deg are none of the two: the camera assumed level
-            v = vertical_from_axes(self._turn_axes)
-            self._vertical = None if v is None or v.spread_deg > 10.0 else v.down
+        if added:
+            # one turn alone is taken too (a tilted chest camera is the rule, a posture change mid-turn the
+            # exception); turns that do not verify each other are checked against the camera-level assumption,
+            # as offline (walkmon.gait.session.vertical_with_level)
+            r0 = self._reference
+            level = rotation_from_angles_deg(r0[0], r0[1], r0[2]) @ np.array([0.0, 1.0, 0.0])
+            v = vertical_with_level(vertical_from_axes(self._turn_axes), level)
+            self._vertical = None if v is None else v.down
 
     def _activity(self, t: NDArray[np.float64], a: NDArray[np.float64], t_now: float) -> tuple[
         str, tuple[float, float] | None

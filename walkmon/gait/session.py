@@ -67,6 +67,7 @@ __all__ = [
     "turn_axis",
     "vertical_from_axes",
     "vertical_from_turns",
+    "vertical_with_level",
     "Vertical",
 ]
 
@@ -179,6 +180,10 @@ class Vertical:
     verified: bool
     #: turns left out because their axes disagreed with the others' (a change of posture or drift in them)
     n_outliers: int = 0
+    #: the kept turns' (axis, angle in degrees)
+    axes: tuple[tuple[NDArray[np.float64], float], ...] = ()
+    #: True when the camera-level assumption was one of the agreeing votes (:func:`vertical_with_level`)
+    with_level: bool = False
 
     def camera_tilt_deg(self, upright_deg: ArrayLike) -> NDArray[np.float64]:
         """The camera's (pitch, roll) from level at the upright pose (start-relative angles ``upright_deg``)."""
@@ -245,7 +250,32 @@ def vertical_from_axes(
         down = mean(kept)
         kept.pop(int(np.argmax([float(np.dot(ax, -down)) for ax, _ in kept])))  # the farthest from the mean
     return Vertical(mean(kept), len(kept), float(sum(ang for _, ang in kept)), spread(kept),
-                    len(kept) >= 2 and spread(kept) <= agree_deg, len(axes) - len(kept))
+                    len(kept) >= 2 and spread(kept) <= agree_deg, len(axes) - len(kept), tuple(kept))
+
+
+def vertical_with_level(
+    vert: Vertical | None, level_down: ArrayLike, agree_deg: float = VERTICAL_AGREE_DEG
+) -> Vertical | None:
+    """An unverified :class:`Vertical` checked against the camera-level assumption (``level_down``, gravity's
+    direction if the camera were level at the upright pose): the turns whose axes agree with it within
+    ``agree_deg`` are kept and verified by it (two votes for a level camera: those turns and the assumption; the
+    direction between them, their disagreement its spread), the others left out (a posture change or drift in
+    them). When no turn agrees, the unverified ``vert`` stands
+    (a tilted camera or a changed posture: one cannot tell). A verified one is returned as it is."""
+    if vert is None or vert.verified or not vert.axes:
+        return vert
+    lv = np.asarray(level_down, dtype=float).reshape(3)
+    lv = lv / np.linalg.norm(lv)
+    near = [(ax, ang) for ax, ang in vert.axes
+            if math.degrees(math.acos(min(1.0, float(np.dot(ax, lv))))) <= agree_deg]
+    if not near:
+        return vert
+    v = vertical_from_axes(near, agree_deg)
+    assert v is not None  # near is not empty
+    down = v.down + lv  # between the agreeing turns and the assumption; their disagreement is the uncertainty
+    spread = max(v.spread_deg, math.degrees(math.acos(min(1.0, float(np.dot(v.down, lv))))))
+    return replace(v, down=down / np.linalg.norm(down), spread_deg=spread, verified=True,
+                   n_outliers=vert.n_outliers + vert.n_turns - len(near), with_level=True)
 
 
 def vertical_from_turns(
@@ -713,6 +743,12 @@ def analyze_session(
     # video: gravity's direction from the axes of the turns (a camera tilted on the trunk otherwise reads its
     # tilt as posture once the wearer has turned)
     vert = None if has_abs or not session_settings.turn_vertical else vertical_from_turns(t, a, seg.turns)
+    if vert is not None and not vert.verified:  # the camera-level assumption as a vote (vertical_with_level)
+        from walkmon.consts import rotation_from_angles_deg
+
+        r0 = (np.asarray(reference_deg, dtype=float).reshape(3) if reference_deg is not None
+              else _upright(t, a, seg, None, s)[0])
+        vert = vertical_with_level(vert, rotation_from_angles_deg(r0[0], r0[1], r0[2]) @ np.array([0.0, 1.0, 0.0]))
     # the angles in a level frame: the camera's frame at the start turned level (gravity's direction from the IMU
     # or the turns), so that pitch, yaw and roll (swings, the step rhythm, the heading rate) are those of the
     # trunk and not a tilted camera's mix of them
@@ -735,6 +771,8 @@ def analyze_session(
     ref_camera = ref if level is None else level_frame_angles(ref[None, :], level.T)[0]  # in the input's frame
     a, ref_out, ref_source, unc = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s,
                                                 down=v_level, vertical_deg=_vertical_uncertainty(vert, ref_camera))
+    if not has_abs:
+        ref_out = ref_camera[[0, 2]]  # the upright pose reported in the input's start-relative angles
     if unc is None and has_abs and stand is None and reference_deg is None and base is None \
             and s.mount_tilt_deg > 0:
         unc = _mount_uncertainty(t, s.mount_tilt_deg)
@@ -786,7 +824,7 @@ def analyze_session(
         reference_deg={"pitch": float(ref_out[0]), "yaw": 0.0, "roll": float(ref_out[1])}, drift_removed_deg={},
         session=session,
     )
-    return SessionAnalysis(ind, seg, ref, ref_source, tuple(seg_docs), rows)
+    return SessionAnalysis(ind, seg, ref_camera, ref_source, tuple(seg_docs), rows)
 
 
 def _vertical_doc(vert: Vertical | None, ref: NDArray, has_abs: bool) -> dict[str, Any]:
@@ -798,7 +836,8 @@ def _vertical_doc(vert: Vertical | None, ref: NDArray, has_abs: bool) -> dict[st
     if vert is None:
         return {"source": "assumed: the camera level on the trunk (no turn of 60 deg or more to measure it)"}
     tilt = vert.camera_tilt_deg(ref)
-    how = (f"their axes agree within {vert.spread_deg:.1f} deg" if vert.verified else
+    how = ("the camera-level assumption agrees with them" if vert.with_level else
+           f"their axes agree within {vert.spread_deg:.1f} deg" if vert.verified else
            "one turn: not verified by a second" if vert.n_turns == 1 else
            f"their axes disagree by {vert.spread_deg:.1f} deg: not verified")
     if vert.n_outliers:

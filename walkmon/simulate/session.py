@@ -153,7 +153,9 @@ class SimulatedSession:
         return self._renderer
 
     def truth(self) -> dict[str, NDArray[np.float64]]:
-        """truth.csv columns: t, pitch, yaw, roll (degrees, relative to frame 0), x, y, z (metres)."""
+        """truth.csv columns: t, pitch, yaw, roll (degrees: the camera's orientation in the world, the upright
+        trunk's frame at the start, so relative to frame 0 unless the script tilts the camera with ``mount:`` or
+        starts bent: then the first row holds that tilt), x, y, z (metres)."""
         t = self.frame_times_s
         angles = _unwrap_yaw(self.model.truth_angles_deg(t))
         pos = self.model.position_m(t)
