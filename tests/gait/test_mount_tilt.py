@@ -87,6 +87,10 @@ def test_analysis_of_a_tilted_camera_labels_a_normal_walk_with_u_turns_normal() 
     # a stretch between two turns with no still phase is left unclassified by the video's reference uncertainty
     # (+-4 deg a turn, as with a level camera); no stretch may get a posture label
     assert "normal" in labels and set(labels) <= {"normal", "unclassified"}
+    from walkmon.gait.report import vertical_text  # what the report and the summary line say
+
+    said = vertical_text(doc["upright_reference"])
+    assert "the camera 18 deg down and " in said and " deg clockwise (seen from behind) at the upright pose" in said
     for s in doc["segments"]:
         assert abs(s["axes"]["pitch"]["inclination_mean"]) < 1.5
         assert abs(s["axes"]["roll"]["inclination_mean"]) < 1.5

@@ -121,9 +121,13 @@ def summary_line(json_path: Path, html_path: Path, indicators: Any) -> str:
     extra = ""
     summary = indicators.session.get("summary") if indicators.session else None
     if summary:
-        ref = indicators.session.get("upright_reference", {}).get("source", "")
+        from walkmon.gait.report import vertical_text  # noqa: PLC0415
+
+        upright = indicators.session.get("upright_reference", {})
         extra = (f" in {summary['n_bouts']} bout(s), {summary['n_steps']} steps, {summary['n_turns']} turn(s); "
-                 f"upright reference: {ref}")
+                 f"upright reference: {upright.get('source', '')}")
+        gravity = vertical_text(upright).strip().rstrip(".")
+        extra += f"; {gravity[0].lower()}{gravity[1:]}" if gravity else ""
         notes = indicators.session.get("input", {}).get("notes") or []
         extra += "".join(f"\n  note: {n}" for n in notes)
     lines = "\n  ".join(cls.reasons)

@@ -239,6 +239,24 @@ def timeline_from_angles(t_s: np.ndarray, angles_deg: np.ndarray, doc: Mapping[s
     return {"hops": cols, "alerts": [], "thresholds": {}, "hop_s": hop_s}
 
 
+def vertical_text(ref: Mapping[str, Any]) -> str:
+    """' Gravity: ...' for a report or a summary line: where gravity's direction came from and, from the wearer's
+    turns, the camera's tilt at the upright pose (its tilt on the chest when that pose is a standing phase); ''
+    without it (paper mode, older files)."""
+    v = ref.get("vertical") or {}
+    if not v.get("source"):
+        return ""
+    tilt = ""
+    if v.get("camera_pitch_deg") is not None and v.get("camera_roll_deg") is not None:
+        p, r = float(v["camera_pitch_deg"]), float(v["camera_roll_deg"])
+        askew = (f" and {abs(r):.0f} deg {'clockwise' if r > 0 else 'anticlockwise'} (seen from behind)"
+                 if abs(r) >= 0.5 else "")
+        tilt = f"; the camera {abs(p):.0f} deg {'down' if p < 0 else 'up'}{askew} at the upright pose"
+        if v.get("verified") is False:
+            tilt += f", not verified (uncertain by {float(v.get('uncertainty_deg') or 0):.0f} deg)"
+    return f" Gravity: {v['source']}{tilt}."
+
+
 def _session_section(doc: Mapping[str, Any]) -> str:
     """Walking bouts, posture segments and turns of a walkmon-mode analysis (schema 2); '' in paper mode."""
     if "segments" not in doc:
@@ -273,7 +291,8 @@ def _session_section(doc: Mapping[str, Any]) -> str:
     posture = ", ".join(f"{k} {_fmt(v, 1)} s" for k, v in (summary.get("posture_time_s") or {}).items()) or "none"
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in (doc.get("input") or {}).get("notes") or [])
     return (f"<h2>Activity, walking bouts and posture segments</h2>\n<p class='small'>Activity: {html.escape(times)}. "
-            f"Upright reference: {html.escape(str(ref.get('source', '?')))}. Labelled walking time: "
+            f"Upright reference: {html.escape(str(ref.get('source', '?')))}.{html.escape(vertical_text(ref))} "
+            "Labelled walking time: "
             f"{html.escape(posture)}. Turns: {html.escape(turns)}. The summary above is the duration-weighted "
             f"aggregate over the posture segments (turns excluded).</p>{f'<ul>{notes}</ul>' if notes else ''}\n"
             f"<h3>Bouts</h3><table>{head}{rows(doc.get('bouts') or [])}</table>\n"
