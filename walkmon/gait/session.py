@@ -8,7 +8,11 @@
 2. **Upright reference**, in this order: the first standing phase (>= ``min_standing_s``) anywhere in the
    recording, gravity-referenced when an IMU gave absolute pitch/roll; without a standing phase, gravity itself
    (IMU: the sensor is then assumed to sit level on the trunk); else the first frame. ``upright_reference``
-   in the output says which.
+   in the output says which. **Gravity's direction** comes from the IMU, or for video from the axes of the
+   wearer's turns (:func:`vertical_from_turns`: a chest camera is rarely level on the trunk, and its tilt reads
+   as posture after a turn otherwise); with it the angles are re-expressed in a level frame riding with the
+   camera (:func:`level_frame_angles`), so that pitch, yaw and roll are the trunk's. Heading-free inclinations
+   (:func:`heading_free_angles`) measure the tilt from the upright pose against that direction.
 3. **Posture segments**: each bout minus its turns (and ``turn_margin_s`` around them) is split at change
    points of the slow (2 s mean) pitch or roll: binary segmentation, a split kept when the two sides differ by
    >= ``change_pitch_deg`` / ``change_roll_deg`` and both last >= ``min_segment_s``.
