@@ -239,6 +239,25 @@ def timeline_from_angles(t_s: np.ndarray, angles_deg: np.ndarray, doc: Mapping[s
     return {"hops": cols, "alerts": [], "thresholds": {}, "hop_s": hop_s}
 
 
+@contextlib.contextmanager
+def _below_warning(logger: logging.Logger):  # noqa: ANN202
+    """``logger``'s warnings held back (logged at DEBUG instead) for the ``with`` block."""
+
+    class _Demote(logging.Filter):
+        def filter(self, record: logging.LogRecord) -> bool:
+            if record.levelno == logging.WARNING:
+                logger.debug("%s", record.getMessage())
+                return False
+            return True
+
+    demote = _Demote()
+    logger.addFilter(demote)
+    try:
+        yield
+    finally:
+        logger.removeFilter(demote)
+
+
 def vertical_text(ref: Mapping[str, Any]) -> str:
     """' Gravity: ...' for a report or a summary line: where gravity's direction came from and, from the wearer's
     turns, the camera's tilt at the upright pose (its tilt on the chest when that pose is a standing phase); ''
@@ -475,7 +494,10 @@ def render_report(
             if indicators.mode == DEFAULT_INDICATOR_SETTINGS.mode
             else IndicatorSettings(mode=indicators.mode)
         )
-    analysis = analyze_gait(t_s, angles_deg, settings, reference_deg=reference_deg)
+    # the figures' own pass over the recording: the analysis that produced ``indicators`` has already said what
+    # it had to (its stance warnings, e.g. an end stance that a tilted camera's U-turn moved, would repeat here)
+    with _below_warning(logging.getLogger("walkmon.gait.indicators")):
+        analysis = analyze_gait(t_s, angles_deg, settings, reference_deg=reference_deg)
     t_in = np.asarray(t_s, dtype=float)
     if abs_angles_deg is not None and not np.array_equal(analysis.t_s, t_in):
         # irregular time stamps (dropped frames): the analysis resampled the angles onto a uniform grid, and
