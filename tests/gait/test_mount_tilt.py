@@ -184,3 +184,33 @@ def test_the_report_repeats_no_stance_warning_of_its_figure_pass(caplog: pytest.
     with caplog.at_level(logging.WARNING, logger="walkmon.gait.indicators"):
         html_text = analyze_angles(t, a).report_html()
     assert "<html" in html_text.lower() and "end stance differs" not in caplog.text
+
+
+def test_live_with_an_imu_takes_gravity_from_it_and_has_no_transient_at_the_first_turn() -> None:
+    from walkmon.consts import gravity_angles_deg_from_gravity
+
+    model = GaitModel("mount:-20:2,stand:3,normal:10,turn:180,normal:10,pause:2", seed=11)
+    t, a = _camera_angles(model)
+    g_cam = np.einsum("nji,j->ni", model.rotation(t), np.array([0.0, 1.0, 0.0]))  # gravity in the camera
+    absd = gravity_angles_deg_from_gravity(g_cam)
+    stage = LiveIndicatorStage()
+    hops = []
+    for ti, ai, gi in zip(t, a, absd, strict=True):
+        ind = stage.push(float(ti), ai, (float(gi[0]), float(gi[1])))
+        if ind is not None:
+            hops.append(ind)
+        if ti < 1.0 and stage.vertical is not None:
+            assert _angle_deg(stage.vertical, _true_down(model)) < 0.5  # from the first samples, no turn needed
+    turn = next(p for p in model.pieces if p.activity == "turning")
+    after = [h for h in hops if turn.end_s + 0.5 <= h.t_s <= turn.end_s + 4.0]
+    assert after
+    for h in after:  # the posture's 2.5 s smoothing of the tilt leaves a few degrees right after a fast turn
+        assert abs(h.posture_deg[0]) < 5.0 and abs(h.posture_deg[2]) < 5.0, (h.t_s, h.posture_deg)
+    # camera-only, the turns' direction comes a stride after the turn: the posture read ~2 x 20 deg until then
+    camera_only = LiveIndicatorStage()
+    worst = 0.0
+    for ti, ai in zip(t, a, strict=True):
+        ind = camera_only.push(float(ti), ai)
+        if ind is not None and turn.end_s + 0.5 <= ind.t_s <= turn.end_s + 4.0:
+            worst = max(worst, abs(ind.posture_deg[0]))
+    assert worst > 20.0

@@ -295,6 +295,7 @@ class LiveIndicatorStage:
         self._turn_axes: list[tuple[NDArray[np.float64], float]] = []
         self._turns_done_s = -math.inf
         self._vertical: NDArray[np.float64] | None = None
+        self._gravity_sum = np.zeros(3)  # gravity in the start frame summed over IMU samples (_learn_gravity)
 
     @property
     def reference_deg(self) -> NDArray[np.float64]:
@@ -307,16 +308,21 @@ class LiveIndicatorStage:
 
     @property
     def vertical(self) -> NDArray[np.float64] | None:
-        """Gravity's direction (down) in the start frame learnt from the wearer's turns, None before the first
-        turn of 60 deg or more (the camera is then assumed level on the trunk)."""
+        """Gravity's direction (down) in the start frame: from a fused IMU's gravity, else learnt from the wearer's
+        turns; None before either (the camera is then assumed level on the trunk)."""
         return None if self._vertical is None else self._vertical.copy()
 
     def request_calibration(self) -> None:
         """Take a new upright reference from the next ``calibration_s`` of still stance."""
         self._calibration_pending = "request"
 
-    def push(self, t_s: float, angles_deg: NDArray[np.float64] | tuple[float, float, float]) -> LiveIndicators | None:
-        """Add one sample; returns the hop's indicators when a hop boundary is crossed, else ``None``."""
+    def push(
+        self, t_s: float, angles_deg: NDArray[np.float64] | tuple[float, float, float],
+        abs_deg: tuple[float, float] | None = None,
+    ) -> LiveIndicators | None:
+        """Add one sample; returns the hop's indicators when a hop boundary is crossed, else ``None``.
+        ``abs_deg``: gravity's (pitch_abs, roll_abs) in the camera at this sample (an IMU fused with the camera);
+        gravity's direction is then taken from it (:meth:`_learn_gravity`) instead of from the turns."""
         a = tuple(float(v) for v in angles_deg)
         if not all(math.isfinite(v) for v in a):
             return None
@@ -326,6 +332,8 @@ class LiveIndicatorStage:
         if self._a:  # yaw continuous across +-180 (a U-turn): a wrapped window reads a 360 deg "swing"
             prev = self._a[-1][1]
             a = (a[0], a[1] + 360.0 * round((prev - a[1]) / 360.0), a[2])
+        if abs_deg is not None:
+            self._learn_gravity((a[0], a[1], a[2]), abs_deg)
         self._t.append(float(t_s))
         self._a.append(a)  # type: ignore[arg-type]
         while self._t and self._t[0] < t_s - s.window_s:
@@ -461,12 +469,27 @@ class LiveIndicatorStage:
         out[1] = (out[1] + 180.0) % 360.0 - 180.0  # the heading, shown within +-180
         return out
 
+    def _learn_gravity(self, a: tuple[float, float, float], abs_deg: tuple[float, float]) -> None:
+        """Gravity's direction in the start frame from an IMU: each sample's gravity (from ``abs_deg``) turned into
+        the start frame by its orientation ``a``, averaged over the session (the fused angles and gravity agree
+        whatever the camera's tilt on the trunk, from the first hop on, without waiting for a turn)."""
+        from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
+
+        p, r = (math.radians(float(v)) for v in abs_deg)
+        if not (math.isfinite(p) and math.isfinite(r)):
+            return
+        g = np.array([math.sin(r), math.cos(r) * math.cos(p), -math.cos(r) * math.sin(p)])
+        self._gravity_sum += rotation_from_angles_deg(a[0], a[1], a[2]) @ g
+        self._vertical = self._gravity_sum / float(np.linalg.norm(self._gravity_sum))
+
     def _learn_vertical(self, t: NDArray[np.float64], a: NDArray[np.float64], turns: tuple) -> None:
         """Add each turn of 60 deg or more, once it lies in the window with a stride's margin on both sides, to
         the turns that give gravity's direction (:func:`walkmon.gait.session.turn_axis`)."""
         from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
         from walkmon.gait.session import turn_axis, vertical_from_axes, vertical_with_level  # noqa: PLC0415
 
+        if float(np.linalg.norm(self._gravity_sum)) > 0:
+            return  # an IMU gives gravity itself
         added = False
         for u in turns:
             if u.start_s <= self._turns_done_s:

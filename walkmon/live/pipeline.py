@@ -651,7 +651,7 @@ class LivePipeline:
         if self.on_frame is not None:
             self.on_frame(FrameResult(frame.t_s, angles, latency_ms, estimate, frame.truth_angles_deg,
                                       abs_angles, self._fusion_mode))
-        ind = self.indicators.push(frame.t_s, angles)
+        ind = self.indicators.push(frame.t_s, angles, abs_angles)
         if ind is not None:
             self._hop(ind, st)
 
