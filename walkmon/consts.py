@@ -42,6 +42,7 @@ __all__ = [
     "TRUTH_COLUMNS",
     "angles_deg_from_rotation",
     "gravity_angles_deg_from_gravity",
+    "gravity_from_angles_deg",
     "orientation_from_point_transform",
     "rot_x",
     "rot_y",
@@ -133,3 +134,10 @@ def gravity_angles_deg_from_gravity(gravity_down: ArrayLike) -> NDArray[np.float
     pitch_abs = np.arctan2(-g[..., 2], g[..., 1])
     roll_abs = np.arcsin(np.clip(g[..., 0], -1.0, 1.0))
     return np.degrees(np.stack([pitch_abs, roll_abs], axis=-1))
+
+
+def gravity_from_angles_deg(pitch_abs_deg: ArrayLike, roll_abs_deg: ArrayLike) -> NDArray[np.float64]:
+    """Gravity's unit direction (pointing down) in the camera frame from (pitch_abs, roll_abs) in degrees: the
+    inverse of :func:`gravity_angles_deg_from_gravity`, ``g = (sin r, cos r cos p, -cos r sin p)``; shape (..., 3)."""
+    p, r = np.radians(np.asarray(pitch_abs_deg, dtype=float)), np.radians(np.asarray(roll_abs_deg, dtype=float))
+    return np.stack([np.sin(r), np.cos(r) * np.cos(p), -np.cos(r) * np.sin(p)], axis=-1)

@@ -473,20 +473,22 @@ class LiveIndicatorStage:
         """Gravity's direction in the start frame from an IMU: each sample's gravity (from ``abs_deg``) turned into
         the start frame by its orientation ``a``, averaged over the session (the fused angles and gravity agree
         whatever the camera's tilt on the trunk, from the first hop on, without waiting for a turn)."""
-        from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
+        from walkmon.consts import gravity_from_angles_deg, rotation_from_angles_deg  # noqa: PLC0415
 
-        p, r = (math.radians(float(v)) for v in abs_deg)
-        if not (math.isfinite(p) and math.isfinite(r)):
+        if not all(math.isfinite(float(v)) for v in abs_deg):
             return
-        g = np.array([math.sin(r), math.cos(r) * math.cos(p), -math.cos(r) * math.sin(p)])
-        self._gravity_sum += rotation_from_angles_deg(a[0], a[1], a[2]) @ g
+        self._gravity_sum += rotation_from_angles_deg(a[0], a[1], a[2]) @ gravity_from_angles_deg(*abs_deg)
         self._vertical = self._gravity_sum / float(np.linalg.norm(self._gravity_sum))
 
     def _learn_vertical(self, t: NDArray[np.float64], a: NDArray[np.float64], turns: tuple) -> None:
         """Add each turn of 60 deg or more, once it lies in the window with a stride's margin on both sides, to
         the turns that give gravity's direction (:func:`walkmon.gait.session.turn_axis`)."""
-        from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
-        from walkmon.gait.session import turn_axis, vertical_from_axes, vertical_with_level  # noqa: PLC0415
+        from walkmon.gait.session import (  # noqa: PLC0415
+            camera_level_down,
+            turn_axis,
+            vertical_from_axes,
+            vertical_with_level,
+        )
 
         if float(np.linalg.norm(self._gravity_sum)) > 0:
             return  # an IMU gives gravity itself
@@ -507,9 +509,7 @@ class LiveIndicatorStage:
             # one turn alone is taken too (a tilted chest camera is the rule, a posture change mid-turn the
             # exception); turns that do not verify each other are checked against the camera-level assumption,
             # as offline (walkmon.gait.session.vertical_with_level)
-            r0 = self._reference
-            level = rotation_from_angles_deg(r0[0], r0[1], r0[2]) @ np.array([0.0, 1.0, 0.0])
-            v = vertical_with_level(vertical_from_axes(self._turn_axes), level)
+            v = vertical_with_level(vertical_from_axes(self._turn_axes), camera_level_down(self._reference))
             self._vertical = None if v is None else v.down
 
     def _activity(self, t: NDArray[np.float64], a: NDArray[np.float64], t_now: float) -> tuple[

@@ -61,6 +61,7 @@ __all__ = [
     "SessionAnalysis",
     "SessionSettings",
     "analyze_session",
+    "camera_level_down",
     "change_points",
     "heading_free_angles",
     "level_basis",
@@ -155,13 +156,24 @@ def heading_free_angles(
     ms = rotation_from_angles_deg(u[0], u[1], u[2])
     v = ms @ np.array([0.0, 1.0, 0.0]) if vertical is None else np.asarray(vertical, dtype=float).reshape(3)
     v = v / np.linalg.norm(v)
-    g_u = ms.T @ v  # gravity in the camera frame at the upright pose
-    bx = np.array([1.0, 0.0, 0.0]) - g_u[0] * g_u
-    bx /= np.linalg.norm(bx)
-    basis = np.stack([bx, g_u, np.cross(bx, g_u)])  # rows: level x, down, level forward (camera frame, upright)
-    g = np.einsum("nji,j->ni", m, v) @ basis.T
+    basis = level_basis(ms.T @ v)  # columns: level x, down, level forward (camera frame at the upright pose)
+    g = np.einsum("nji,j->ni", m, v) @ basis
     tilt = gravity_angles_deg_from_gravity(g)
     return slow_offset(t_s, a, np.column_stack([tilt[:, 0], a[:, 1], tilt[:, 1]]))
+
+
+def _angle_deg(u: NDArray[np.float64], v: NDArray[np.float64]) -> float:
+    """The angle between two unit vectors, degrees."""
+    return math.degrees(math.acos(min(1.0, max(-1.0, float(np.dot(u, v))))))
+
+
+def camera_level_down(upright_deg: ArrayLike) -> NDArray[np.float64]:
+    """Gravity's direction in the start frame if the camera were level at the upright pose (start-relative
+    angles ``upright_deg``): that pose's y axis, the assumption when nothing measured gravity."""
+    from walkmon.consts import rotation_from_angles_deg
+
+    u = np.asarray(upright_deg, dtype=float).reshape(3)
+    return rotation_from_angles_deg(u[0], u[1], u[2]) @ np.array([0.0, 1.0, 0.0])
 
 
 #: Turns' axes that agree within this make gravity's direction from turns trusted (:class:`Vertical`), degrees:
@@ -246,8 +258,7 @@ def vertical_from_axes(
         return v / np.linalg.norm(v)
 
     def spread(items: list[tuple[NDArray[np.float64], float]]) -> float:
-        return max((math.degrees(math.acos(min(1.0, float(np.dot(p, q))))) for i, (p, _) in enumerate(items)
-                    for q, _ in items[i + 1:]), default=0.0)
+        return max((_angle_deg(p, q) for i, (p, _) in enumerate(items) for q, _ in items[i + 1:]), default=0.0)
 
     kept = list(axes)
     while len(kept) > 2 and spread(kept) > agree_deg:
@@ -270,14 +281,13 @@ def vertical_with_level(
         return vert
     lv = np.asarray(level_down, dtype=float).reshape(3)
     lv = lv / np.linalg.norm(lv)
-    near = [(ax, ang) for ax, ang in vert.axes
-            if math.degrees(math.acos(min(1.0, float(np.dot(ax, lv))))) <= agree_deg]
+    near = [(ax, ang) for ax, ang in vert.axes if _angle_deg(ax, lv) <= agree_deg]
     if not near:
         return vert
     v = vertical_from_axes(near, agree_deg)
     assert v is not None  # near is not empty
     down = v.down + lv  # between the agreeing turns and the assumption; their disagreement is the uncertainty
-    spread = max(v.spread_deg, math.degrees(math.acos(min(1.0, float(np.dot(v.down, lv))))))
+    spread = max(v.spread_deg, _angle_deg(v.down, lv))
     return replace(v, down=down / np.linalg.norm(down), spread_deg=spread, verified=True,
                    n_outliers=vert.n_outliers + vert.n_turns - len(near), with_level=True)
 
@@ -748,11 +758,8 @@ def analyze_session(
     # tilt as posture once the wearer has turned)
     vert = None if has_abs or not session_settings.turn_vertical else vertical_from_turns(t, a, seg.turns)
     if vert is not None and not vert.verified:  # the camera-level assumption as a vote (vertical_with_level)
-        from walkmon.consts import rotation_from_angles_deg
-
-        r0 = (np.asarray(reference_deg, dtype=float).reshape(3) if reference_deg is not None
-              else _upright(t, a, seg, None, s)[0])
-        vert = vertical_with_level(vert, rotation_from_angles_deg(r0[0], r0[1], r0[2]) @ np.array([0.0, 1.0, 0.0]))
+        r0 = reference_deg if reference_deg is not None else _upright(t, a, seg, None, s)[0]
+        vert = vertical_with_level(vert, camera_level_down(r0))
     # the angles in a level frame: the camera's frame at the start turned level (gravity's direction from the IMU
     # or the turns), so that pitch, yaw and roll (swings, the step rhythm, the heading rate) are those of the
     # trunk and not a tilted camera's mix of them
@@ -861,11 +868,7 @@ def _vertical_uncertainty(vert: Vertical | None, ref: NDArray) -> float:
         return 0.0
     if vert.verified:
         return float(vert.spread_deg)
-    from walkmon.consts import rotation_from_angles_deg
-
-    level = rotation_from_angles_deg(ref[0], ref[1], ref[2]) @ np.array([0.0, 1.0, 0.0])
-    beta = math.degrees(math.acos(min(1.0, float(np.dot(level, vert.down)))))
-    return max(float(vert.spread_deg), beta)
+    return max(float(vert.spread_deg), _angle_deg(camera_level_down(ref), vert.down))
 
 
 def level_basis(down: ArrayLike) -> NDArray[np.float64]:
@@ -899,13 +902,12 @@ def level_frame_angles(angles_deg: ArrayLike, basis: NDArray[np.float64]) -> NDA
 def _start_down(a: NDArray, absd: NDArray) -> NDArray[np.float64] | None:
     """Gravity's direction in the start frame from gravity-referenced (pitch_abs, roll_abs) (an IMU): the median
     over the recording of each frame's gravity turned into the start frame."""
-    from walkmon.consts import rotation_from_angles_deg
+    from walkmon.consts import gravity_from_angles_deg, rotation_from_angles_deg
 
     ok = np.isfinite(absd[:, :2]).all(axis=1) & np.isfinite(a).all(axis=1)
     if ok.sum() < 3:
         return None
-    p, r = np.radians(absd[ok, 0]), np.radians(absd[ok, 1])
-    g = np.column_stack([np.sin(r), np.cos(r) * np.cos(p), -np.cos(r) * np.sin(p)])
+    g = gravity_from_angles_deg(absd[ok, 0], absd[ok, 1])
     m = rotation_from_angles_deg(a[ok, 0], a[ok, 1], a[ok, 2])
     v = np.median(np.einsum("nij,nj->ni", m, g), axis=0)
     n = float(np.linalg.norm(v))

@@ -105,6 +105,10 @@ class FastEngine:
         self._sx = camera.width_px / self._track_size[0]
         self._sy = camera.height_px / self._track_size[1]
         self._focal = 0.5 * (camera.fx + camera.fy)
+        # below a few tracking pixels the plane's two solutions are within the tracking noise (160x120 tracking
+        # flagged 6 % of a foot-drag walk's frames, all within 1 deg of the truth, with a fixed 1 deg)
+        self._planar_threshold_deg = max(_PLANAR_AMBIGUITY_DEG,
+                                         math.degrees(_PLANAR_AMBIGUITY_TRACK_PX * self._sx / self._focal))
         # Corner spacing is a fraction of the view, not a pixel count: at 320x240 a 16 px spacing halved the
         # corners a 640x480 view gets and left roll at 0.14 deg detrended RMSE (0.06 with the scaled spacing).
         self._feature_spacing_px = settings.min_feature_distance_px * camera.width_px / _REFERENCE_WIDTH_PX
@@ -382,10 +386,11 @@ class FastEngine:
 
     def _plane_ambiguous(
         self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], pose: geo.PoseFit, mask: NDArray[np.bool_],
-    ) -> bool:
+    ) -> tuple[bool, NDArray[np.float64] | None]:
         """The third model: a plane-induced homography, fitted when the essential model beat the rotation-only
-        one (there is parallax). True to flag the frame ("planar_ambiguity"), False when the essential model
-        stands.
+        one (there is parallax). ``(flag, ground)``: flag True to flag the frame ("planar_ambiguity"), False when
+        the essential model stands; ground the rotation of the plane's solution recognised as the ground
+        (:meth:`_ground_solution`), else None.
 
         When the homography explains the tracks nearly as well as the essential model (median transfer error
         below ``_PLANAR_RESIDUAL_RATIO`` times the essential's median Sampson error: the tracks lie near one
@@ -405,26 +410,23 @@ class FastEngine:
         hom = geo.homography_fit(q_kf, q_cur, self._focal, pose.rotation, inlier_px=self.s.inlier_px, method="dlt",
                                  use=mask)
         if hom is None:
-            return False
+            return False, None
         e_res = float(np.median(np.abs(pose.residuals_px[mask])))
         if float(np.median(hom.residuals_px[mask])) >= _PLANAR_RESIDUAL_RATIO * max(e_res, 1e-6):
-            return False
+            return False, None
         gap = geo.rotation_angle_deg(pose.rotation.T @ hom.rotation)
-        # below a few tracking pixels the two solutions are within the tracking noise (160x120 tracking flagged
-        # 6 % of a foot-drag walk's frames, all within 1 deg of the truth, with a fixed 1 deg)
-        threshold = max(_PLANAR_AMBIGUITY_DEG, math.degrees(_PLANAR_AMBIGUITY_TRACK_PX * self._sx / self._focal))
         ground = self._ground_solution(hom, pose) if self.s.ground_plane else None
         if ground is not None:
             # the ground walked along: of the plane's two solutions the one whose normal is the vertical is the
             # true one, so the plane leaves no ambiguity; the essential fit stands when it agrees with it
-            return geo.rotation_angle_deg(pose.rotation.T @ ground) > threshold
+            return geo.rotation_angle_deg(pose.rotation.T @ ground) > self._planar_threshold_deg, ground
         # two visible plane solutions (the images cannot tell), or the (degenerate) essential fit strayed from
         # the plane's rotation: flagged. Reporting the homography's own rotation instead was tried: its
         # single-frame DLT is too noisy (night: 2.4 deg frame-to-frame jumps, raw yaw 2.2 -> 6.9 deg).
-        return max(gap, hom.ambiguity_deg) > threshold
+        return max(gap, hom.ambiguity_deg) > self._planar_threshold_deg, None
 
     def _ground_refit(
-        self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], pose: geo.PoseFit, mask: NDArray[np.bool_],
+        self, q_kf: NDArray[np.float64], q_cur: NDArray[np.float64], ground: NDArray[np.float64],
     ) -> geo.PoseFit | None:
         """The essential model refined from the ground's plane solution, when the tracks lie on the ground (one
         plane solution with a vertical normal, :meth:`_ground_solution`) and the free essential fit strayed from
@@ -433,20 +435,10 @@ class FastEngine:
         ground's rotation, else None (the frame is flagged). Without it a walker bent forward with the camera
         tilted down (45 deg below level) was flagged frame after frame, the rotation-only fallback drifted the
         pitch and the drifted orientation then no longer recognised the ground: 100 deg of error."""
-        if not self.s.ground_plane:
-            return None
-        hom = geo.homography_fit(q_kf, q_cur, self._focal, pose.rotation, inlier_px=self.s.inlier_px, method="dlt",
-                                 use=mask)
-        if hom is None:
-            return None
-        ground = self._ground_solution(hom, pose)
-        if ground is None:
-            return None
         sigma = self.s.feature_noise_px
         refit = geo.refine_relative_pose(q_kf, q_cur, self._focal, ground, None, scale_px=sigma * 2,
                                          inlier_px=self.s.inlier_px, iterations=4)
-        threshold = max(_PLANAR_AMBIGUITY_DEG, math.degrees(_PLANAR_AMBIGUITY_TRACK_PX * self._sx / self._focal))
-        return refit if geo.rotation_angle_deg(refit.rotation.T @ ground) <= threshold else None
+        return refit if geo.rotation_angle_deg(refit.rotation.T @ ground) <= self._planar_threshold_deg else None
 
     def _ground_solution(self, hom: geo.HomographyFit, pose: geo.PoseFit) -> NDArray[np.float64] | None:
         """The rotation of the plane solution that is the ground, when exactly one visible solution has its
@@ -696,8 +688,9 @@ class FastEngine:
             mask = pose.inliers | rot.inliers
             g_rot = geo.gric(rot.residuals_px[mask], sigma, 2, 3)
             g_ess = geo.gric(pose.residuals_px[mask], sigma, 3, 5)
-            if g_ess < g_rot and self._plane_ambiguous(q_kf, q_cur, pose, mask):
-                ground = self._ground_refit(q_kf, q_cur, pose, mask)
+            planar, on_ground = self._plane_ambiguous(q_kf, q_cur, pose, mask) if g_ess < g_rot else (False, None)
+            if planar:
+                ground = None if on_ground is None else self._ground_refit(q_kf, q_cur, on_ground)
                 if ground is not None:  # the ground's plane solution, refined by the essential model: it stands
                     fit = _Fit("essential", ground.rotation, np.abs(ground.residuals_px), ground.inliers,
                                EstimateStatus.OK)
@@ -730,7 +723,7 @@ class FastEngine:
                 # the rotation-only fit was read 0.6 deg off in one frame, reported ok, and 0.6 back the next).
                 # A facade is a plane, so the plane check of the branch above applies here too: where a
                 # homography explains the tracks as well, neither fit is trusted (the rotation-only one, flagged)
-                if self._plane_ambiguous(q_kf, q_cur, pose, mask):
+                if self._plane_ambiguous(q_kf, q_cur, pose, mask)[0]:
                     fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
                                reason="planar_ambiguity")
                 else:
