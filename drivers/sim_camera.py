@@ -33,6 +33,8 @@ def script_seconds(walk: str) -> float | None:
         if not m:
             msg = f"sim: bad walk script part {p!r} (expected name, name:seconds or turn:degrees[:seconds])"
             raise ConfigError(msg)
+        if m.group(1).lower() == "mount":  # the camera's tilt on the trunk, not a segment
+            continue
         if m.group(2) is None:
             return None
         if m.group(1).lower() != "turn":  # a turn's number is its angle (the simulator checks the script)

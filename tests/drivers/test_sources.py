@@ -110,6 +110,17 @@ def test_sim_camera_gives_truth_and_its_own_intrinsics() -> None:
         open_camera("sim:moonwalk:3?realtime=0")
 
 
+def test_sim_camera_takes_a_tilted_mount_and_its_seconds_leave_the_mount_out() -> None:
+    from walkmon.drivers.sim_camera import script_seconds
+
+    assert script_seconds("mount:-15:2,normal:3,turn:90,normal:2") == 5.0  # the -15 and 2 are degrees
+    with open_camera("sim:mount:-15:2,normal:1?width=160&height=120&realtime=0") as cam:
+        first = cam.read()
+    assert first.truth_angles_deg == pytest.approx((-15.0, 0.0, 2.0), abs=1e-9)  # standing upright, camera tilted
+    with pytest.raises(ConfigError, match="mount"):
+        open_camera("sim:mount:-60,normal:3?realtime=0")
+
+
 def test_file_imu_reads_samples_then_ends(tmp_path: Path) -> None:
     p = tmp_path / "imu.csv"
     p.write_text("t,gx,gy,gz,ax,ay,az\n0.0,0.1,0.2,0.3,0,-9.81,0\n0.005,0.1,0.2,0.3,0,-9.81,0.1\n")

@@ -56,6 +56,15 @@ def test_bad_mount_tokens_are_refused_in_one_line(script: str) -> None:
         GaitModel(script)
 
 
+def test_parse_walk_script_checks_the_mount_and_leaves_it_out_of_the_segments() -> None:
+    from walkmon.simulate.gait import parse_walk_script
+
+    assert [(g.walk, g.duration_s) for g in parse_walk_script("mount:-12,normal:3,bend:2")] == [
+        ("normal", 3.0), ("bend", 2.0)]
+    with pytest.raises(InvalidInputError, match="mount"):
+        parse_walk_script("mount:-90,normal:3")
+
+
 def test_split_mount_leaves_other_scripts_alone_and_unkind_sessions_draw_a_chest_mount() -> None:
     assert split_mount("normal:10,bend:10") == ("normal:10,bend:10", (0.0, 0.0))
     assert split_mount("mount:-12.5,normal:10") == ("normal:10", (-12.5, 0.0))

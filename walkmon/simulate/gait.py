@@ -216,11 +216,13 @@ def parse_walk_script(script: str, seconds: float | None = None, *, stand_s: flo
     A single walk type without a duration lasts ``seconds`` in total, standing included (so the session is
     ``seconds`` long: ``seconds - 2 * stand_s`` of walking). In a script with several segments each one needs
     its duration (walking seconds); the session then lasts their sum plus the standing at both ends.
+    A ``mount:PITCH[:ROLL]`` token (:data:`MOUNT_TOKEN`) is checked and left out of the segments.
     Raises :class:`InvalidInputError` for unknown types or bad syntax.
     """
     if not isinstance(script, str) or not script.strip():
         msg = f"walk script must be a walk type or a list like 'normal:10,bend:10', got {script!r}"
         raise InvalidInputError(msg)
+    script, _mount = split_mount(script)  # the camera's mount is no segment (checked there, kept by GaitModel)
     parts = [p.strip() for p in script.strip().lower().split(",")]
     segments: list[Segment] = []
     for part in parts:
