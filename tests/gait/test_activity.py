@@ -284,3 +284,27 @@ def test_video_edge_search_leaves_bouts_without_a_posture_ramp_and_imu_alone(syn
     imu = signals_from_imu(rec.t, rec.acc, rec.gyr)
     assert [(x.start_s, x.end_s) for x in segment(imu).bouts] == \
         [(x.start_s, x.end_s) for x in segment(imu, ActivitySettings(edge_search_steps=0)).bouts]
+
+
+def test_a_camera_estimates_correction_jump_does_not_move_the_steps() -> None:
+    """The fast method corrects its tilt in one frame after a turn (the vertical lines: up to ~9 deg at once).
+    The step rhythm must not see those jumps: the steps of angles with jumps are those of the same angles
+    without them (the jump moved a step by 0.06 s before without_jumps), and gait alone is left untouched."""
+    from walkmon.gait.activity import without_jumps
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("normal:16", seed=4)
+    t = np.arange(0.0, model.duration_s, 1 / 30)
+    a = model.truth_angles_deg(t)
+    assert np.array_equal(without_jumps(t, a[:, 0]), a[:, 0])  # no jump in gait itself
+    clean = segment(signals_from_angles(t, a)).steps_s
+    jumped = a.copy()
+    jumped[t >= 8.0, 0] += 5.0
+    jumped[t >= 12.0, 0] -= 3.0
+    steps = segment(signals_from_angles(t, jumped)).steps_s
+    assert steps.size == clean.size
+    assert np.max(np.abs(steps - clean)) < 0.021  # one 50 Hz sample
+    # the jumps are taken out, the motion around them kept (each leaves the error of its frame's own motion,
+    # guessed from the frames either side: ~0.2 deg for a 1.5 deg pitch swing)
+    fixed = without_jumps(t, jumped[:, 0])
+    assert np.max(np.abs((fixed - fixed[0]) - (a[:, 0] - a[0, 0]))) < 0.5

@@ -305,8 +305,37 @@ def signals_from_angles(
     # of pitch: take the rhythm about the pitch's 1 s running median (one step or more at >= 60 steps/min)
     from scipy.ndimage import median_filter
 
-    step = a_u[:, 0] - median_filter(a_u[:, 0], size=max(3, int(settings.rate_hz)), mode="nearest")
+    pitch = np.interp(grid, t, without_jumps(t, a[:, 0]))
+    step = pitch - median_filter(pitch, size=max(3, int(settings.rate_hz)), mode="nearest")
     return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy())
+
+
+def without_jumps(t_s: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``x`` (degrees, one axis) with its one-sample jumps taken out: a change above _JUMP_MIN_DEG and
+    _JUMP_FACTOR times the median change around it (1 s), between two changes under a third of it. A trunk does
+    not turn by a degree in one frame between frames in which it barely moves; a camera estimate does, where its
+    drift is corrected (the vertical lines after a turn: up to ~9 deg at once). For the step rhythm only: the
+    correction itself is right, the posture keeps it."""
+    from scipy.ndimage import median_filter
+
+    if x.size < 5:
+        return x
+    d = np.diff(x)
+    fs = (t_s.size - 1) / max(float(t_s[-1] - t_s[0]), 1e-9)
+    local = median_filter(np.abs(d), size=max(3, int(round(fs)) | 1), mode="nearest")
+    a = np.abs(d)
+    prev = np.concatenate([[np.inf], a[:-1]])
+    nxt = np.concatenate([a[1:], [np.inf]])
+    jump = (a > _JUMP_MIN_DEG) & (a > _JUMP_FACTOR * local) & (prev < a / 3.0) & (nxt < a / 3.0)
+    if not jump.any():
+        return x
+    around = 0.5 * (np.where(np.isfinite(prev), prev, 0.0) + np.where(np.isfinite(nxt), nxt, 0.0))
+    return x - np.concatenate([[0.0], np.cumsum(np.where(jump, d - around * np.sign(d), 0.0))])
+
+
+#: One-sample jumps of camera angles (:func:`without_jumps`): above this (deg) and this many times the local change.
+_JUMP_MIN_DEG = 0.75
+_JUMP_FACTOR = 6.0
 
 
 # --------------------------------------------------------------------------------------------- gait windows
