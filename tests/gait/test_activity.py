@@ -308,3 +308,22 @@ def test_a_camera_estimates_correction_jump_does_not_move_the_steps() -> None:
     # guessed from the frames either side: ~0.2 deg for a 1.5 deg pitch swing)
     fixed = without_jumps(t, jumped[:, 0])
     assert np.max(np.abs((fixed - fixed[0]) - (a[:, 0] - a[0, 0]))) < 0.5
+
+
+def test_without_jumps_at_the_ends_and_across_a_gap_in_the_frames() -> None:
+    """A jump in the first or the last frame is taken out too; a real lean across a gap in the frames (0.5 s of
+    dropped frames, 1 deg) is a slow change, not a jump, and stays (both found in review)."""
+    from walkmon.gait.activity import without_jumps
+
+    t = np.arange(0.0, 5.0, 1 / 30)
+    x = np.sin(2 * np.pi * 1.8 * t)  # a 1 deg step rhythm
+    for k in (1, t.size - 1):
+        y = x.copy()
+        y[k:] += 4.0
+        z = without_jumps(t, y)
+        assert np.max(np.abs((z - z[0]) - (x - x[0]))) < 0.15, k
+    gap = t.copy()
+    gap[75:] += 0.5
+    lean = np.sin(2 * np.pi * 1.8 * gap)
+    lean[75:] += 1.0
+    assert np.array_equal(without_jumps(gap, lean), lean)

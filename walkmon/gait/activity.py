@@ -311,26 +311,31 @@ def signals_from_angles(
 
 
 def without_jumps(t_s: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``x`` (degrees, one axis) with its one-sample jumps taken out: a change above _JUMP_MIN_DEG and
-    _JUMP_FACTOR times the median change around it (1 s), between two changes under a third of it. A trunk does
+    """``x`` (degrees, one axis) with its one-sample jumps taken out: a change above _JUMP_MIN_DEG whose rate is
+    above _JUMP_FACTOR times the median rate around it (1 s) and three times the rates either side. A trunk does
     not turn by a degree in one frame between frames in which it barely moves; a camera estimate does, where its
-    drift is corrected (the vertical lines after a turn: up to ~9 deg at once). For the step rhythm only: the
-    correction itself is right, the posture keeps it."""
+    drift is corrected (the vertical lines after a turn: up to ~9 deg at once). Rates, not changes, so that a gap
+    in the frames is not taken for a jump. For the step rhythm only: the correction itself is right, the posture
+    keeps it."""
     from scipy.ndimage import median_filter
 
     if x.size < 5:
         return x
     d = np.diff(x)
+    dt = np.maximum(np.diff(t_s), 1e-9)
+    r = np.abs(d) / dt
     fs = (t_s.size - 1) / max(float(t_s[-1] - t_s[0]), 1e-9)
-    local = median_filter(np.abs(d), size=max(3, int(round(fs)) | 1), mode="nearest")
-    a = np.abs(d)
-    prev = np.concatenate([[np.inf], a[:-1]])
-    nxt = np.concatenate([a[1:], [np.inf]])
-    jump = (a > _JUMP_MIN_DEG) & (a > _JUMP_FACTOR * local) & (prev < a / 3.0) & (nxt < a / 3.0)
+    local = median_filter(r, size=max(3, int(round(fs)) | 1), mode="mirror")
+    before = np.concatenate([[np.nan], r[:-1]])
+    after = np.concatenate([r[1:], [np.nan]])
+    # at the ends the one neighbour there is stands for both
+    before = np.where(np.isfinite(before), before, after)
+    after = np.where(np.isfinite(after), after, before)
+    jump = (np.abs(d) > _JUMP_MIN_DEG) & (r > _JUMP_FACTOR * local) & (before < r / 3.0) & (after < r / 3.0)
     if not jump.any():
         return x
-    around = 0.5 * (np.where(np.isfinite(prev), prev, 0.0) + np.where(np.isfinite(nxt), nxt, 0.0))
-    return x - np.concatenate([[0.0], np.cumsum(np.where(jump, d - around * np.sign(d), 0.0))])
+    motion = 0.5 * (before + after) * dt * np.sign(d)  # the frame's own motion, guessed from its neighbours
+    return x - np.concatenate([[0.0], np.cumsum(np.where(jump, d - motion, 0.0))])
 
 
 #: One-sample jumps of camera angles (:func:`without_jumps`): above this (deg) and this many times the local change.

@@ -475,7 +475,7 @@ class FastEngine:
 
     def _hold(self, t_s: float, status: EstimateStatus, reason: str, n_tracks: int = 0) -> RotationEstimate:
         if self._vertical is not None and reason != "repeated_frame":  # the camera may move on while held
-            self._vertical.add_doubt(_FLAGGED_DOUBT_DEG)
+            self._vertical.add_doubt(_FLAGGED_DOUBT_DEG, t_s)
         return make_estimate(t_s, self._orientation, n_inliers=0, model="hold", status=status, n_tracks=n_tracks,
                              reason=reason)
 
@@ -517,7 +517,7 @@ class FastEngine:
         if fit.status is not EstimateStatus.OK and fit.reason != "planar_ambiguity":
             self._heading = None  # the orientation it is kept in may be off by degrees: learn it afresh
         if turn == "fast" and self._vertical is not None:
-            self._vertical.add_doubt(_FLAGGED_DOUBT_DEG)
+            self._vertical.add_doubt(_FLAGGED_DOUBT_DEG, t_s)
         new_kf = self._accept(small, orientation, fit, t_s)
         status, reason = fit.status, fit.reason
         if status is EstimateStatus.OK and self._correction_deg > _CORRECTION_FLAG_DEG:

@@ -64,6 +64,8 @@ _DOUBT_CHECK_DEG = 1.0
 _CLEAR_SD_DEG = 0.5
 _CLEAR_LINES_FACTOR = 2
 _DOUBT_CHECK_INTERVAL_S = 0.2
+#: Looks between keyframes stop this long (s) after the last doubt was added (VerticalReference.due).
+_DOUBT_LOOK_S = 3.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -214,24 +216,33 @@ class VerticalReference:
         self._P = self.q * np.eye(2)
         #: tilt doubt (deg) the odometry added in frames it flagged since the last correction (:meth:`add_doubt`)
         self._doubt_deg = 0.0
+        self._doubt_t = -math.inf  # when doubt was last added
         self._last: tuple[float, NDArray[np.float64]] | None = None
         self.corrections = 0
         #: the yaw reference fed with the same line segments (see walkmon.rotation.heading), or None
         self.heading = heading
 
-    def add_doubt(self, deg: float) -> None:
-        """The odometry flagged a frame (a fast turn, a plane it cannot resolve, a held orientation): its tilt may
-        be off by up to ``deg`` more. Flagged frames' errors are mostly biases that add up (a turn past a facade
-        1-3 m away: 2-9 deg of tilt in 30-60 frames on the simulator's unkind sessions), so the doubt adds
-        linearly until a correction, not as a random walk: after a turn the lines are trusted over the
-        odometry, and searched for as far from the prediction as the doubt reaches."""
+    def add_doubt(self, deg: float, t_s: float) -> None:
+        """The odometry flagged a frame at ``t_s`` (a fast turn, a held orientation): its tilt may be off by up to
+        ``deg`` more. Such errors are mostly biases that add up (a turn past a facade 1-3 m away: 2-9 deg of tilt
+        in 30-60 frames on the simulator's unkind sessions), so the doubt adds linearly until a clear view takes
+        it up, not as a random walk. Ignored before the first measurement of the world's vertical (nothing to
+        correct towards); a turn while it is being learnt ends the learning with the measurements so far, which
+        the turn's drift would otherwise enter."""
+        if self._n_init == 0:
+            return
+        self._n_init = max(self._n_init, self.init_measurements)
         self._doubt_deg = min(self._doubt_deg + max(0.0, float(deg)), _MAX_DOUBT_DEG)
+        self._doubt_t = float(t_s)
 
     def due(self, t_s: float) -> bool:
-        """Whether a keyframe now would be worth it for the lines alone: the flagged frames' doubt has reached
-        _DOUBT_CHECK_DEG and the last look was _DOUBT_CHECK_INTERVAL_S ago or more. In steady walking a keyframe
-        can hold for a second; the drift a turn left would stay in the walk after it until then."""
-        if self._doubt_deg < _DOUBT_CHECK_DEG or self.world_vertical is None:
+        """Whether to look at the lines now, between keyframes: the doubt has reached _DOUBT_CHECK_DEG, the last
+        look was _DOUBT_CHECK_INTERVAL_S ago or more, and the last doubt came less than _DOUBT_LOOK_S ago (in
+        steady walking a keyframe can hold for a second, and the drift a turn left would stay in the walk until
+        then; where no clear view comes, at night or in fog, the looks stop and the doubt waits for keyframes)."""
+        if self._doubt_deg < _DOUBT_CHECK_DEG or self._n_init < self.init_measurements:
+            return False
+        if float(t_s) - self._doubt_t > _DOUBT_LOOK_S:
             return False
         return self._last is None or float(t_s) - self._last[0] >= _DOUBT_CHECK_INTERVAL_S
 
@@ -276,50 +287,61 @@ class VerticalReference:
         if found is None:
             return orientation
         p0, p1, w = found
-        P = self._P + math.radians(self._doubt_deg) ** 2 * np.eye(2)
-        sigma_deg = math.degrees(math.sqrt(float(np.max(np.linalg.eigvalsh(P)))))
-        if self.world_vertical is None:
-            fit = vertical_fit(p0, p1, np.array([0.0, 1.0, 0.0]), w, gates_deg=_INIT_GATES_DEG,
+        if self.world_vertical is None or self._n_init < self.init_measurements:
+            fit = vertical_fit(p0, p1, np.array([0.0, 1.0, 0.0]) if self.world_vertical is None
+                               else orientation.T @ self.world_vertical, w,
+                               gates_deg=_INIT_GATES_DEG if self.world_vertical is None else (2.0,),
                                min_lines=self.min_lines, floor_deg=self.floor_deg, covariance_scale=self.covariance_scale)
-        else:
-            # the search reaches 3 standard deviations of the prediction's doubt, then narrows as at the start
-            wide = min(_INIT_GATES_DEG[0], 3.0 * sigma_deg)
-            gates = tuple(g for g in _INIT_GATES_DEG if g < wide)
-            fit = vertical_fit(p0, p1, orientation.T @ self.world_vertical, w,
-                               gates_deg=(wide, *gates) if wide > 2.0 else (2.0,), min_lines=self.min_lines,
-                               floor_deg=self.floor_deg, covariance_scale=self.covariance_scale)
-        if fit is None:
-            return self._heading(p0, p1, w, orientation)
-        if self._n_init < self.init_measurements:
+            if fit is None:
+                return self._heading(p0, p1, w, orientation)
             # the world's vertical: an information-weighted mean of the first measurements, while the odometry's
             # drift is still negligible; no correction yet
             self._acc += (orientation @ fit.vertical) / float(np.trace(fit.covariance))
             self.world_vertical = self._acc / np.linalg.norm(self._acc)
             self._n_init += 1
             self._P = self.q * np.eye(2)
+            self._doubt_deg = 0.0
             # the heading reference learns its azimuth from the same first views (with the vertical known so far)
             return self._heading(p0, p1, w, orientation)
-        # The flagged frames' doubt is taken up only by a clear view of the vertical (many long lines that agree):
-        # a few noisy lines (night, fog) pulled harder by it moved a good tilt by degrees (night seed 3: 0.1 ->
-        # 3.3 deg). Without one, the filter goes on as if nothing had been flagged, within its usual limit.
-        clear = (math.degrees(math.sqrt(float(np.max(np.linalg.eigvalsh(fit.covariance))))) <= _CLEAR_SD_DEG
-                 and fit.n_lines >= _CLEAR_LINES_FACTOR * self.min_lines)
-        use_doubt = self._doubt_deg > 0 and clear
-        if not use_doubt:
-            P, sigma_deg = self._P, 0.0
-        if float(np.linalg.norm(fit.delta)) > max(self.max_correction_rad, math.radians(min(_INIT_GATES_DEG[0],
-                                                                                            3.0 * sigma_deg))):
-            return self._heading(p0, p1, w, orientation)  # not the vertical predicted: lines of something else
+        predicted = orientation.T @ self.world_vertical
+        P, fit = self._P, None
+        if self._doubt_deg > 0:
+            # After flagged frames the search reaches 3 standard deviations of the doubt, then narrows as at the
+            # start; only a clear view of the vertical (many long lines that agree) takes the doubt up: a few noisy
+            # lines (night, fog) pulled harder by it moved a good tilt by degrees (night seed 3: 0.1 -> 3.3 deg).
+            P = self._P + math.radians(self._doubt_deg) ** 2 * np.eye(2)
+            sigma_deg = math.degrees(math.sqrt(float(np.max(np.linalg.eigvalsh(P)))))
+            wide = min(_INIT_GATES_DEG[0], 3.0 * sigma_deg)
+            gates = (wide, *(g for g in _INIT_GATES_DEG if g < wide)) if wide > 2.0 else (2.0,)
+            fit = vertical_fit(p0, p1, predicted, w, gates_deg=gates, min_lines=self.min_lines,
+                               floor_deg=self.floor_deg, covariance_scale=self.covariance_scale)
+            clear = fit is not None and fit.n_lines >= _CLEAR_LINES_FACTOR * self.min_lines and math.degrees(
+                math.sqrt(float(np.max(np.linalg.eigvalsh(fit.covariance))))) <= _CLEAR_SD_DEG
+            if clear and fit is not None and float(np.linalg.norm(fit.delta)) <= math.radians(wide):
+                return self._update(fit, P, p0, p1, w, orientation, t_s, spend_doubt=True)
+            P, fit = self._P, None  # not a clear view: as if nothing had been flagged
+        fit = vertical_fit(p0, p1, predicted, w, min_lines=self.min_lines, floor_deg=self.floor_deg,
+                           covariance_scale=self.covariance_scale)
+        if fit is None or float(np.linalg.norm(fit.delta)) > self.max_correction_rad:
+            return self._heading(p0, p1, w, orientation)  # none, or not the vertical predicted: something else
+        return self._update(fit, P, p0, p1, w, orientation, t_s, spend_doubt=False)
+
+    def _update(self, fit: VerticalFit, P: NDArray[np.float64], p0: NDArray[np.float64], p1: NDArray[np.float64],
+                w: NDArray[np.float64], orientation: NDArray[np.float64], t_s: float, *, spend_doubt: bool
+                ) -> NDArray[np.float64]:
+        """The filter's update with the tilt covariance ``P``, the heading's after it; the result is the
+        orientation the next look's rate is measured from."""
         K = P @ np.linalg.inv(P + fit.covariance)
         step = K @ fit.delta
         self._P = (np.eye(2) - K) @ P
-        if use_doubt:
+        if spend_doubt:
             self._doubt_deg = 0.0
         self.corrections += 1
         # the camera's vertical is where the lines put it: rotate the camera frame so that the measured vertical
         # (rotated from the predicted one by basis @ delta) maps to the world's, by the filter's share of it
-        corrected: NDArray[np.float64] = orientation @ rotation_from_rotvec(-(fit.basis @ step))
-        return self._heading(p0, p1, w, corrected)
+        corrected = self._heading(p0, p1, w, orientation @ rotation_from_rotvec(-(fit.basis @ step)))
+        self._last = (float(t_s), corrected.copy())  # a correction is no turn of the camera's
+        return corrected
 
     def _heading(
         self, p0: NDArray[np.float64], p1: NDArray[np.float64], w: NDArray[np.float64], orientation: NDArray[np.float64]
