@@ -10,11 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walkmon.camera.model import read_camera_yaml
-from walkmon.consts import rotation_from_angles_deg
-from walkmon.rotation import EstimateStatus, RotationEstimator
+from walkmon.rotation import EstimateStatus
 from walkmon.rotation import geometry as geo
-from walkmon.tables import read_table
 
 
 @pytest.fixture(scope="module")
@@ -25,17 +22,9 @@ def wall_clip(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_walking_towards_a_wall_is_flagged_not_reported_ok(wall_clip):
-    from walkmon.drivers.video_file import VideoFile
-
-    est = RotationEstimator(read_camera_yaml(wall_clip / "camera.yaml"))
-    with VideoFile(wall_clip / "video.mp4") as video:
-        out = [est.push(frame, t) for t, frame in video]
-    tr = read_table(wall_clip / "truth.csv", ["t", "pitch", "yaw", "roll"])
-    n = min(len(out), len(tr["t"]))
-    Rt = rotation_from_angles_deg(tr["pitch"], tr["yaw"], tr["roll"])[:n]
-    Re = np.array([o.rotation for o in out[:n]])
-    ok = np.array([o.status in (EstimateStatus.OK, EstimateStatus.FIRST_FRAME) for o in out[:n]])
+def test_walking_towards_a_wall_is_flagged_not_reported_ok(wall_clip, clip_run):
+    run = clip_run(wall_clip)
+    out, n, Rt, Re, ok = run.out, run.n, run.truth, run.est, run.ok
     flagged = [o for o in out[:n] if o.status is EstimateStatus.LOW_QUALITY]
     assert flagged, "the near plane must be flagged"
     ref = 0
@@ -59,30 +48,23 @@ def turns_clip(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_fast_turns_past_facades_are_flagged_with_a_reason_never_ok_and_wrong(turns_clip):
+def test_fast_turns_past_facades_are_flagged_with_a_reason_never_ok_and_wrong(turns_clip, clip_run):
     """Turns of 90-180 deg at up to 180 deg/s past facades 1-3 m away (simulator truth).
 
     Before the fast-rotation flag, the second essential start and the frame-to-frame check, 21 frames of this
     clip were reported ok with more than 1 deg of error since the last flagged frame (frame-to-frame errors up to
     0.8 deg): the lateral translation past the facade was taken for a yaw.
     """
-    from walkmon.drivers.video_file import VideoFile
     from walkmon.rotation import FLAG_REASONS
 
-    est = RotationEstimator(read_camera_yaml(turns_clip / "camera.yaml"))
-    with VideoFile(turns_clip / "video.mp4") as video:
-        out = [est.push(frame, t) for t, frame in video]
-    tr = read_table(turns_clip / "truth.csv", ["t", "pitch", "yaw", "roll"])
-    n = min(len(out), len(tr["t"]))
-    Rt = rotation_from_angles_deg(tr["pitch"], tr["yaw"], tr["roll"])[:n]
-    Re = np.array([o.rotation for o in out[:n]])
-    ok = np.array([o.status in (EstimateStatus.OK, EstimateStatus.FIRST_FRAME) for o in out[:n]])
+    run = clip_run(turns_clip)
+    out, n, Rt, Re, ok = run.out, run.n, run.truth, run.est, run.ok
     # every flagged frame says why, in words the README and FLAG_REASONS explain; ok frames say nothing
     assert all(o.reason in FLAG_REASONS for o, k in zip(out[:n], ok, strict=True) if not k)
     assert all(o.reason == "" for o, k in zip(out[:n], ok, strict=True) if k)
     # the fastest part of the turns (above 120 deg/s true) is never reported ok
     rate = np.array([0.0] + [geo.rotation_angle_deg(Rt[i - 1].T @ Rt[i]) for i in range(1, n)]) / np.diff(
-        tr["t"][:n], prepend=tr["t"][0] - 1.0)
+        run.t, prepend=run.t[0] - 1.0)
     fast = rate > 120.0
     assert fast.sum() > 20  # the clip does turn that fast
     assert not ok[fast].any(), np.flatnonzero(fast & ok)
@@ -113,20 +95,12 @@ def turns_clip_seed2(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_sideways_past_a_facade_the_rotation_only_fit_is_not_reported(turns_clip_seed2):
+def test_sideways_past_a_facade_the_rotation_only_fit_is_not_reported(turns_clip_seed2, clip_run):
     """After a turn, looking across the heading at a facade 1-3 m away, one frame after a keyframe GRIC kept the
     rotation-only model, which took the 2 cm sideways step for 0.6 deg of yaw (reported ok, and 0.6 back the
     next frame: 0.62 deg frame-to-frame against the truth); the essential fit from the second start was right.
     """
-    from walkmon.drivers.video_file import VideoFile
-
-    est = RotationEstimator(read_camera_yaml(turns_clip_seed2 / "camera.yaml"))
-    with VideoFile(turns_clip_seed2 / "video.mp4") as video:
-        out = [est.push(frame, t) for t, frame in video]
-    tr = read_table(turns_clip_seed2 / "truth.csv", ["t", "pitch", "yaw", "roll"])
-    n = min(len(out), len(tr["t"]))
-    Rt = rotation_from_angles_deg(tr["pitch"], tr["yaw"], tr["roll"])[:n]
-    Re = np.array([o.rotation for o in out[:n]])
-    ok = np.array([o.status in (EstimateStatus.OK, EstimateStatus.FIRST_FRAME) for o in out[:n]])
+    run = clip_run(turns_clip_seed2)
+    n, Rt, Re, ok = run.n, run.truth, run.est, run.ok
     step_err = np.array([geo.rotation_angle_deg((Rt[i - 1].T @ Rt[i]).T @ (Re[i - 1].T @ Re[i])) for i in range(1, n)])
     assert step_err[ok[1:]].max() <= 0.5, (step_err[ok[1:]].max(), np.flatnonzero(ok[1:] & (step_err > 0.5)) + 1)

@@ -12,10 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from walkmon.camera.model import read_camera_yaml
-from walkmon.consts import rotation_from_angles_deg
-from walkmon.rotation import EstimateStatus, RotationEstimator
-from walkmon.tables import read_table
+from walkmon.rotation import EstimateStatus
 
 SCRIPT = "mount:-4:1.6,stand:2,normal:5,turn:-90,normal:1,turn:-90,normal:6"
 
@@ -29,27 +26,21 @@ def two_turns(tmp_path_factory):
     return out
 
 
-def test_tilt_left_by_turns_is_corrected_after_them(two_turns) -> None:
-    from walkmon.drivers.video_file import VideoFile
-
-    est = RotationEstimator(read_camera_yaml(two_turns / "camera.yaml"))
-    with VideoFile(two_turns / "video.mp4") as video:
-        out = [est.push(frame, t) for t, frame in video]
-    tr = read_table(two_turns / "truth.csv", ["t", "pitch", "yaw", "roll"])
-    n = min(len(out), len(tr["t"]))
-    absolute = rotation_from_angles_deg(tr["pitch"], tr["yaw"], tr["roll"])[:n]
+def test_tilt_left_by_turns_is_corrected_after_them(two_turns, clip_run) -> None:
+    run = clip_run(two_turns)
+    out, n, absolute = run.out, run.n, run.truth
     truth = np.einsum("ji,njk->nik", absolute[0], absolute)  # start-relative, as the estimator reports
     down = absolute[0].T @ np.array([0.0, 1.0, 0.0])  # gravity in the start frame
-    est_g = np.einsum("nji,j->ni", np.array([o.rotation for o in out[:n]]), down)
+    est_g = np.einsum("nji,j->ni", run.est, down)
     true_g = np.einsum("nji,j->ni", truth, down)
     tilt_err = np.degrees(np.arccos(np.clip(np.sum(est_g * true_g, axis=1), -1.0, 1.0)))
-    t = tr["t"][:n]
+    t = run.t
     assert np.median(tilt_err[t < 7.5]) < 0.3  # before the turns: the odometry itself
     after = t > 11.0  # the second turn is over by 10.5 s
     assert np.median(tilt_err[after]) < 2.0, np.median(tilt_err[after])  # 6.7 deg without the correction
     # the correction is a jump of the estimate: its frame is flagged, and no frame reported ok jumps
     assert any(o.reason == "keyframe_correction" for o, tt in zip(out[:n], t, strict=True) if 10.0 < tt < 12.0)
-    rot = np.array([o.rotation for o in out[:n]])
+    rot = run.est
     for i in range(1, n):
         if t[i] > 10.0 and out[i].status is EstimateStatus.OK:
             step_err = (truth[i - 1].T @ truth[i]).T @ (rot[i - 1].T @ rot[i])
