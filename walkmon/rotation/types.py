@@ -78,7 +78,9 @@ class RotationSettings:
         (``CameraModel.readout_s``), not a rotation setting.
         ``vertical_reference``: correct pitch/roll drift at keyframes from vertical lines (the vertical vanishing
         direction, :mod:`walkmon.rotation.vertical`); ``vertical_drift_deg_s``: how fast the odometry's tilt error
-        is assumed to grow (the correction's process noise, deg after one second). ``heading_reference`` (needs
+        is assumed to grow (the correction's process noise, deg after one second; each frame of a fast turn adds
+        0.3 deg of doubt on top, which a clear view of vertical lines takes out at once after the turn, between
+        keyframes if need be). ``heading_reference`` (needs
         ``vertical_reference``): correct yaw drift at keyframes from horizontal lines of a Manhattan world
         (streets, corridors: :mod:`walkmon.rotation.heading`), modulo 90 deg. ``ground_plane``: where the tracks lie
         on one plane, take the plane solution whose normal is the vertical as the ground's (a camera tilted down
