@@ -826,15 +826,17 @@ class FastEngine:
         keyframes are not rescheduled (a keyframe forced at another frame changed the odometry's course after
         it: turns seed 1, yaw 0.6 -> 4.8 deg)."""
         assert self._vertical is not None  # the caller checked
-        corrected = self._vertical.correct(small, self._orientation, self._t_s, self._normalized, self._sx)
+        corrected = self._vertical.correct(small, self._orientation, self._t_s, self._normalized, self._sx,
+                                           doubt_only=True)
         if corrected is self._orientation or np.array_equal(corrected, self._orientation):
             return
         self._correction_deg = geo.rotation_angle_deg(self._orientation.T @ corrected)
+        world = corrected @ self._orientation.T  # the correction as a turn of the start frame
         self._orientation = corrected
         self._R_kf = corrected @ self._R_rel.T
-        if self._window:
-            _, ids, q = self._window[-1]
-            self._window[-1] = (self._R_kf.copy(), ids, q)
+        # every keyframe of the window carries the drift just taken out: move them all, or the next keyframe's
+        # refinement would pull it back part of the way
+        self._window = deque(((world @ R_j, ids, q) for R_j, ids, q in self._window), maxlen=self._window.maxlen)
 
 
 @dataclass(frozen=True, slots=True)

@@ -269,10 +269,14 @@ class VerticalReference:
         t_s: float,
         normalized: Callable[[NDArray[np.float32]], NDArray[np.float64]],
         scale_px: float = 1.0,
+        *,
+        doubt_only: bool = False,
     ) -> NDArray[np.float64]:
         """``orientation`` (camera to start frame) corrected by the vertical lines of ``small`` (the tracking
         image; ``normalized`` maps its pixel positions (N, 1, 2) to homogeneous normalised coordinates,
-        ``scale_px`` its pixel to the input's), or unchanged when they cannot say."""
+        ``scale_px`` its pixel to the input's), or unchanged when they cannot say. ``doubt_only``: a look between
+        keyframes (:meth:`due`), which corrects only by taking the doubt up from a clear view: the filter's
+        ordinary small corrections, five times a second, shook the pitch that the step rhythm is read from."""
         if self._last is not None and float(t_s) - self._last[0] < self.interval_s:
             return orientation
         last, self._last = self._last, (float(t_s), orientation.copy())
@@ -320,6 +324,8 @@ class VerticalReference:
             if clear and fit is not None and float(np.linalg.norm(fit.delta)) <= math.radians(wide):
                 return self._update(fit, P, p0, p1, w, orientation, t_s, spend_doubt=True)
             P, fit = self._P, None  # not a clear view: as if nothing had been flagged
+        if doubt_only:
+            return orientation
         fit = vertical_fit(p0, p1, predicted, w, min_lines=self.min_lines, floor_deg=self.floor_deg,
                            covariance_scale=self.covariance_scale)
         if fit is None or float(np.linalg.norm(fit.delta)) > self.max_correction_rad:
