@@ -232,3 +232,21 @@ def test_doubt_is_bounded_never_negative_and_waits_for_the_vertical() -> None:
     out = ref.correct(img, R_true, t + 0.2, _normalized)
     assert rotation_angle_deg(R_true.T @ out) < 0.3
     assert ref._doubt_deg == 0.0  # a clear view took it up
+
+
+def test_a_look_between_keyframes_only_takes_doubt_up() -> None:
+    """Between keyframes (doubt_only) a view that is not clear changes nothing: the filter's ordinary small
+    corrections, five looks a second after a turn, shook the pitch the video's steps are read from. At a keyframe
+    the same view corrects as it always did."""
+    rng = np.random.default_rng(10)
+    R_true = rotation_from_angles_deg(-3.0, 5.0, 2.0)
+    ref, _, t = _learnt(_vertical_edges(rng, 60), R_true)
+    poor = _drawn(R_true, _vertical_edges(rng, 14))
+    R = R_true @ rotation_from_angles_deg(0.0, 0.0, 1.5)  # within the ordinary 3 deg limit
+    for _ in range(20):  # uncertainty grows: the ordinary filter would now correct a good part of it
+        ref.correct(np.zeros_like(poor), R, t, _normalized)
+        t += 1.0
+    ref.add_doubt(2.0, t)
+    assert np.array_equal(ref.correct(poor, R, t + 0.2, _normalized, doubt_only=True), R)
+    out = ref.correct(poor, R, t + 1.0, _normalized)
+    assert rotation_angle_deg(R_true.T @ out) < rotation_angle_deg(R_true.T @ R) - 0.1
