@@ -28,8 +28,9 @@ simulator's unkind sessions at 320x240), more than the filter's slow random walk
 limit accepts, so such an error stayed for the rest of a walk. The fast method therefore adds *doubt* for each
 frame of a fast turn (:meth:`VerticalReference.add_doubt`, linear: the errors are biases); with doubt the lines are
 looked at as soon as the turn is over (:meth:`VerticalReference.due`, between keyframes), searched as far as the
-doubt reaches, and a clear view (many long segments that agree) takes the error out at once. A poor view is used as
-if there were no doubt: a few noisy lines pulled harder moved good tilts by degrees at night.
+doubt reaches, and a clear view (many long segments that agree) takes the error out at once. A poor view is used at
+keyframes as if there were no doubt, and not at all between them: a few noisy lines pulled harder moved good tilts
+by degrees at night.
 """
 
 from __future__ import annotations
@@ -59,11 +60,11 @@ _MAX_DOUBT_DEG = 20.0
 #: From this doubt (deg) on, the lines are looked at every _DOUBT_CHECK_INTERVAL_S (s) without waiting for a
 #: keyframe (VerticalReference.due).
 _DOUBT_CHECK_DEG = 1.0
+_DOUBT_CHECK_INTERVAL_S = 0.2
 #: A clear view of the vertical (VerticalReference.correct): the lines' fit within this standard deviation (deg),
 #: from at least this many times min_lines segments.
 _CLEAR_SD_DEG = 0.5
 _CLEAR_LINES_FACTOR = 2
-_DOUBT_CHECK_INTERVAL_S = 0.2
 #: Looks between keyframes stop this long (s) after the last doubt was added (VerticalReference.due).
 _DOUBT_LOOK_S = 3.0
 
