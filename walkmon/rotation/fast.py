@@ -828,7 +828,7 @@ class FastEngine:
         assert self._vertical is not None  # the caller checked
         corrected = self._vertical.correct(small, self._orientation, self._t_s, self._normalized, self._sx,
                                            doubt_only=True)
-        if corrected is self._orientation or np.array_equal(corrected, self._orientation):
+        if corrected is self._orientation:  # the lines gave no clear view: nothing changed
             return
         self._correction_deg = geo.rotation_angle_deg(self._orientation.T @ corrected)
         world = corrected @ self._orientation.T  # the correction as a turn of the start frame

@@ -292,10 +292,11 @@ class VerticalReference:
         if found is None:
             return orientation
         p0, p1, w = found
-        if self.world_vertical is None or self._n_init < self.init_measurements:
-            fit = vertical_fit(p0, p1, np.array([0.0, 1.0, 0.0]) if self.world_vertical is None
-                               else orientation.T @ self.world_vertical, w,
-                               gates_deg=_INIT_GATES_DEG if self.world_vertical is None else (2.0,),
+        # the camera's y axis until the world's vertical has a first measurement (add_doubt keeps _n_init at 0 until
+        # then, so the learning below covers that case too)
+        predicted = np.array([0.0, 1.0, 0.0]) if self.world_vertical is None else orientation.T @ self.world_vertical
+        if self._n_init < self.init_measurements:
+            fit = vertical_fit(p0, p1, predicted, w, gates_deg=_INIT_GATES_DEG if self.world_vertical is None else (2.0,),
                                min_lines=self.min_lines, floor_deg=self.floor_deg, covariance_scale=self.covariance_scale)
             if fit is None:
                 return self._heading(p0, p1, w, orientation)
@@ -305,10 +306,8 @@ class VerticalReference:
             self.world_vertical = self._acc / np.linalg.norm(self._acc)
             self._n_init += 1
             self._P = self.q * np.eye(2)
-            self._doubt_deg = 0.0
             # the heading reference learns its azimuth from the same first views (with the vertical known so far)
             return self._heading(p0, p1, w, orientation)
-        predicted = orientation.T @ self.world_vertical
         P, fit = self._P, None
         if self._doubt_deg > 0:
             # After flagged frames the search reaches 3 standard deviations of the doubt, then narrows as at the
