@@ -135,6 +135,7 @@ class FastEngine:
         self._next_id = 0
         self._rejected = np.zeros((0, 2), np.float32)  # positions of the tracks the last frame rejected
         self._parallax_deg = 0.0
+        self._ground_step = False  # this frame's fit is the ground's and jumped from the chain (see _fit)
         # recent keyframes: (orientation, sorted track ids, their normalised coordinates there)
         self._window: deque[tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]] = deque(
             maxlen=max(1, settings.keyframe_window)
@@ -544,6 +545,10 @@ class FastEngine:
             # tried (3 deg/s): it reports the uncorrected fit where the correction fixes the frame's own fit
             # (turns seed 1: a frame at 92 deg/s, 0.63 deg off instead of 0.44)
             status, reason = EstimateStatus.LOW_QUALITY, "keyframe_correction"
+        if self._ground_step and status is EstimateStatus.OK:
+            # estimated as an ok frame (keyframes, refinement), claimed as not: its change from the last frame
+            # is not measured to an ok frame's accuracy (see _fit)
+            status, reason = EstimateStatus.LOW_QUALITY, "ground_step"
         if turn == "tail" and status is EstimateStatus.OK:
             # the end of a fast turn: reported as not ok, but estimated as an ok frame (same keyframe logic), so
             # the flag changes what is claimed, never the orientation
@@ -708,6 +713,7 @@ class FastEngine:
         fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.OK)
         self._centre = None
         start = ""
+        on_ground_fit = False
         # the rotation-only fit's median residual as an angle: the parallax since the keyframe (for _accept)
         self._parallax_deg = math.degrees(float(np.median(rot.residuals_px)) / self._focal)
         if float(np.median(rot.residuals_px)) > 0.5 * sigma and n >= max(8, s.min_inliers):
@@ -716,6 +722,7 @@ class FastEngine:
             g_rot = geo.gric(rot.residuals_px[mask], sigma, 2, 3)
             g_ess = geo.gric(pose.residuals_px[mask], sigma, 3, 5)
             planar, on_ground = self._plane_ambiguous(q_kf, q_cur, pose, mask) if g_ess < g_rot else (False, None)
+            on_ground_fit = on_ground is not None
             if planar:
                 ground = None if on_ground is None else self._ground_refit(q_kf, q_cur, on_ground)
                 if ground is not None:  # the ground's plane solution, refined by the essential model: it stands
@@ -758,15 +765,25 @@ class FastEngine:
                                EstimateStatus.OK)
         # (not when the second start won: travelling sideways to the view, the rotation-only change between the
         # frames is the biased one, by the translation's 0.5-1 deg a frame past a facade)
+        self._ground_step = False
         if (fit.status is EstimateStatus.OK and start != "sideways"
                 and geo.rotation_angle_deg(chain.T @ fit.rotation) > _STEP_JUMP_DEG):
-            # the fit jumps away from where the frame-to-frame tracking puts it: a fit that changed minimum (the
-            # essential refinement's other basin), not a rotation the tracks saw. The rotation-only fit against
-            # the keyframe is used, as for the other flags: the chained change itself, used at first, fed its
-            # errors back in a fast turn (the next frame's fit starts from it; inliers fell to 12 of 130 and
-            # turns seed 2 ended 57 deg off)
-            fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.LOW_QUALITY,
-                       reason="step_inconsistent")
+            if on_ground_fit:
+                # the fit is the ground's plane solution (the one whose normal is the vertical), which the chain
+                # cannot judge: over the near ground seen steeply (a camera 40-45 deg below level) one frame's
+                # walk moves the tracks like a rotation of about a degree, and the chained change is the biased
+                # one. The fit stands, the frame flagged ("ground_step", in push): a keyframe started on the
+                # rotation-only fit, as for the other flags, took its bias up for good, about a degree per
+                # flagged frame (unkind bend seed 3, camera 24 deg down: 15 deg of pitch in one second)
+                self._ground_step = True
+            else:
+                # the fit jumps away from where the frame-to-frame tracking puts it: a fit that changed minimum
+                # (the essential refinement's other basin), not a rotation the tracks saw. The rotation-only fit
+                # against the keyframe is used, as for the other flags: the chained change itself, used at first,
+                # fed its errors back in a fast turn (the next frame's fit starts from it; inliers fell to 12 of
+                # 130 and turns seed 2 ended 57 deg off)
+                fit = _Fit("rotation", rot.rotation, rot.residuals_px, rot.inliers, EstimateStatus.LOW_QUALITY,
+                           reason="step_inconsistent")
         self._q_cur = q_cur
         return fit
 

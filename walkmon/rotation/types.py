@@ -167,6 +167,8 @@ FLAG_REASONS = {
     "models_disagree": "the essential rotation strays from the rotation-only one beyond what the parallax explains",
     "planar_ambiguity": "the tracks lie on one plane whose two rotations (or the essential's) differ",
     "step_inconsistent": "the fit jumps away from the frame-to-frame tracking of the same points",
+    "ground_step": "the ground plane's fit (kept) jumps away from the frame-to-frame tracking, which the near ground"
+    " biases",
     "translation_ambiguity": "looking sideways to the walker's heading, a translation and a rotation fit alike",
     "fast_rotation": "turning faster than max_ok_rate_deg_s, or since, until the rate halved: tracking and blur degrade",
     "keyframe_correction": "a new keyframe's refinement (older keyframes, vertical lines) moved the orientation by"

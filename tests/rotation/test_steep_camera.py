@@ -1,0 +1,51 @@
+"""A chest camera tilted 25 deg down on a walker bent forward (issue 14's "25 deg-down camera on a stooping walker").
+
+The camera looks about 45 deg below level and sees mostly the ground near the feet: a plane, so the essential
+fit is ill-posed and the plane's solution whose normal is the vertical is taken for the ground. Two rules failed
+there (simulated 8 s walks, 320x240, seeds 1 and 3):
+
+* The ground was recognised against the camera's start assumed level, within 30 deg, with the normals' signs
+  ignored: 45 deg off, the ground's normal and the other solution's (the direction of travel) were equally far
+  from it and neither was taken. Every frame was flagged, the rotation-only fallback drifted: 118 and 33 deg off.
+  Signed, the two normals lie about 90 deg apart and the ground's is the one on the side of the image's down.
+* A ground fit more than 1 deg from the previous frame moved on by the frame-to-frame rotation-only change was
+  replaced by the rotation-only fit and a keyframe started on it. Over the near ground one frame's walk moves
+  the tracks like a rotation of about a degree, so the chained change was the biased one and each such frame
+  took its bias up for good: 2.4 and 6.9 deg off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from walkmon.rotation import EstimateStatus
+
+SCRIPT = "mount:-25:-2,bend:8"
+
+
+@pytest.fixture(scope="module", params=[1, 3])
+def steep_walk(request, tmp_path_factory):
+    from walkmon.simulate.session import simulate
+
+    out = tmp_path_factory.mktemp(f"steep_{request.param}")
+    simulate(out, walk=SCRIPT, seed=request.param, width=320, height=240)
+    return out
+
+
+def _angle_deg(R: np.ndarray) -> np.ndarray:
+    return np.degrees(np.arccos(np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)))
+
+
+def test_steep_camera_on_a_bent_walker_keeps_its_orientation(steep_walk, clip_run) -> None:
+    run = clip_run(steep_walk)
+    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)  # start-relative, as the estimator reports
+    err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+    assert err.max() < 1.5, err.max()  # 118 / 33 deg (ground not recognised), 2.4 / 6.9 (chain preferred)
+    assert np.median(err) < 1.0, np.median(err)
+    # the walk is seen: most frames are estimated ok, and no ok frame jumps
+    assert run.ok.mean() > 0.8, run.ok.mean()
+    for i in range(1, run.n):
+        if run.out[i].status is EstimateStatus.OK and run.out[i - 1].status is EstimateStatus.OK:
+            step_err = (truth[i - 1].T @ truth[i]).T @ (run.est[i - 1].T @ run.est[i])
+            assert _angle_deg(step_err) < 1.0, run.t[i]
