@@ -479,8 +479,9 @@ class FastEngine:
         brought those walks from 40-60 to 12-26 deg of error but accepted noisy ground fits in the night and fog
         clips (met* 2 -> 1 and 1 -> 0 of 5). So was the wider cone whatever the vertical's source (with the lines'
         vertical known it took noisy fits for the ground: wall met 2 -> 0 of 5, rolling shutter raw yaw 2.8 ->
-        3.2 deg), and the wide cone alone in place of the narrow one with an assumed vertical (fog: the ok frame
-        above; with the normals-apart test but without the narrow rule first, fog raw pitch 1.08 -> 1.35 deg)."""
+        3.2 deg), and the wide cone alone in place of the narrow one with an assumed vertical (fog seed 4: an ok
+        frame 0.84 deg off the previous; with the normals-apart test but without the narrow rule first, fog raw
+        pitch 1.08 -> 1.35 deg)."""
         if len(hom.solutions) < 2:
             return None
         measured_world = None if self._vertical is None else self._vertical.world_vertical
