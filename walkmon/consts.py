@@ -40,6 +40,7 @@ __all__ = [
     "GRAVITY_MS2",
     "IMU_COLUMNS",
     "TRUTH_COLUMNS",
+    "angle_between_deg",
     "angles_deg_from_rotation",
     "gravity_angles_deg_from_gravity",
     "gravity_from_angles_deg",
@@ -141,3 +142,9 @@ def gravity_from_angles_deg(pitch_abs_deg: ArrayLike, roll_abs_deg: ArrayLike) -
     inverse of :func:`gravity_angles_deg_from_gravity`, ``g = (sin r, cos r cos p, -cos r sin p)``; shape (..., 3)."""
     p, r = np.radians(np.asarray(pitch_abs_deg, dtype=float)), np.radians(np.asarray(roll_abs_deg, dtype=float))
     return np.stack([np.sin(r), np.cos(r) * np.cos(p), -np.cos(r) * np.sin(p)], axis=-1)
+
+
+def angle_between_deg(u: ArrayLike, v: ArrayLike) -> float:
+    """The angle between two unit vectors (directions, signs counted), degrees."""
+    c = float(np.dot(np.asarray(u, dtype=float), np.asarray(v, dtype=float)))
+    return float(np.degrees(np.arccos(min(1.0, max(-1.0, c)))))

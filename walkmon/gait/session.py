@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from walkmon.consts import AXES
+from walkmon.consts import AXES, angle_between_deg
 from walkmon.gait.activity import (
     DEFAULT_ACTIVITY_SETTINGS,
     ActivitySettings,
@@ -162,11 +162,6 @@ def heading_free_angles(
     return slow_offset(t_s, a, np.column_stack([tilt[:, 0], a[:, 1], tilt[:, 1]]))
 
 
-def _angle_deg(u: NDArray[np.float64], v: NDArray[np.float64]) -> float:
-    """The angle between two unit vectors, degrees."""
-    return math.degrees(math.acos(min(1.0, max(-1.0, float(np.dot(u, v))))))
-
-
 def camera_level_down(upright_deg: ArrayLike) -> NDArray[np.float64]:
     """Gravity's direction in the start frame if the camera were level at the upright pose (start-relative
     angles ``upright_deg``): that pose's y axis, the assumption when nothing measured gravity."""
@@ -258,7 +253,7 @@ def vertical_from_axes(
         return v / np.linalg.norm(v)
 
     def spread(items: list[tuple[NDArray[np.float64], float]]) -> float:
-        return max((_angle_deg(p, q) for i, (p, _) in enumerate(items) for q, _ in items[i + 1:]), default=0.0)
+        return max((angle_between_deg(p, q) for i, (p, _) in enumerate(items) for q, _ in items[i + 1:]), default=0.0)
 
     kept = list(axes)
     while len(kept) > 2 and spread(kept) > agree_deg:
@@ -281,13 +276,13 @@ def vertical_with_level(
         return vert
     lv = np.asarray(level_down, dtype=float).reshape(3)
     lv = lv / np.linalg.norm(lv)
-    near = [(ax, ang) for ax, ang in vert.axes if _angle_deg(ax, lv) <= agree_deg]
+    near = [(ax, ang) for ax, ang in vert.axes if angle_between_deg(ax, lv) <= agree_deg]
     if not near:
         return vert
     v = vertical_from_axes(near, agree_deg)
     assert v is not None  # near is not empty
     down = v.down + lv  # between the agreeing turns and the assumption; their disagreement is the uncertainty
-    spread = max(v.spread_deg, _angle_deg(v.down, lv))
+    spread = max(v.spread_deg, angle_between_deg(v.down, lv))
     return replace(v, down=down / np.linalg.norm(down), spread_deg=spread, verified=True,
                    n_outliers=vert.n_outliers + vert.n_turns - len(near), with_level=True)
 
@@ -868,7 +863,7 @@ def _vertical_uncertainty(vert: Vertical | None, ref: NDArray) -> float:
         return 0.0
     if vert.verified:
         return float(vert.spread_deg)
-    return max(float(vert.spread_deg), _angle_deg(camera_level_down(ref), vert.down))
+    return max(float(vert.spread_deg), angle_between_deg(camera_level_down(ref), vert.down))
 
 
 def level_basis(down: ArrayLike) -> NDArray[np.float64]:

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walkmon.camera.model import CameraModel
+from walkmon.consts import angle_between_deg
 from walkmon.rotation import geometry as geo
 from walkmon.rotation import shutter
 from walkmon.rotation.heading import HeadingReference
@@ -489,7 +490,7 @@ class FastEngine:
         world = measured_world if measured_world is not None else np.array([0.0, 1.0, 0.0])
         down = (self._R_kf @ pose.rotation).T @ world
         down /= float(np.linalg.norm(down))
-        angles = [math.degrees(math.acos(min(1.0, max(-1.0, float(n @ down))))) for _, n in hom.solutions]
+        angles = [angle_between_deg(n, down) for _, n in hom.solutions]
 
         def pick(cone: float, other: float) -> int | None:
             near = [i for i, a in enumerate(angles) if a <= cone]
@@ -500,10 +501,11 @@ class FastEngine:
         k = pick(_GROUND_NORMAL_DEG, _OTHER_NORMAL_DEG)
         if k is None and not measured:
             k = pick(_ASSUMED_GROUND_NORMAL_DEG, _ASSUMED_OTHER_NORMAL_DEG)
-            n0 = hom.solutions[k][1] if k is not None else None
-            if n0 is not None and any(math.degrees(math.acos(min(1.0, abs(float(n @ n0))))) < _ASSUMED_NORMALS_APART_DEG
-                                      for i, (_, n) in enumerate(hom.solutions) if i != k):
-                k = None
+            if k is not None:
+                # the angles between the planes (their normals as lines, signs left out)
+                apart = [angle_between_deg(n, hom.solutions[k][1]) for i, (_, n) in enumerate(hom.solutions) if i != k]
+                if any(min(a, 180.0 - a) < _ASSUMED_NORMALS_APART_DEG for a in apart):
+                    k = None
         return None if k is None else hom.solutions[k][0]
 
     def _hold(self, t_s: float, status: EstimateStatus, reason: str, n_tracks: int = 0) -> RotationEstimate:

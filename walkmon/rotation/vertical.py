@@ -69,6 +69,11 @@ _CLEAR_LINES_FACTOR = 2
 _DOUBT_LOOK_S = 3.0
 
 
+def _sd_deg(cov: NDArray[np.float64]) -> float:
+    """The standard deviation (deg) in the worst direction of a tilt covariance (rad^2)."""
+    return math.degrees(math.sqrt(float(np.max(np.linalg.eigvalsh(cov)))))
+
+
 @dataclass(frozen=True, slots=True)
 class VerticalFit:
     """The vertical measured from lines, as a small rotation of the predicted one.
@@ -314,13 +319,13 @@ class VerticalReference:
             # start; only a clear view of the vertical (many long lines that agree) takes the doubt up: a few noisy
             # lines (night, fog) pulled harder by it moved a good tilt by degrees (night seed 3: 0.1 -> 3.3 deg).
             P = self._P + math.radians(self._doubt_deg) ** 2 * np.eye(2)
-            sigma_deg = math.degrees(math.sqrt(float(np.max(np.linalg.eigvalsh(P)))))
+            sigma_deg = _sd_deg(P)
             wide = min(_INIT_GATES_DEG[0], 3.0 * sigma_deg)
             gates = (wide, *(g for g in _INIT_GATES_DEG if g < wide)) if wide > 2.0 else (2.0,)
             fit = vertical_fit(p0, p1, predicted, w, gates_deg=gates, min_lines=self.min_lines,
                                floor_deg=self.floor_deg, covariance_scale=self.covariance_scale)
-            clear = fit is not None and fit.n_lines >= _CLEAR_LINES_FACTOR * self.min_lines and math.degrees(
-                math.sqrt(float(np.max(np.linalg.eigvalsh(fit.covariance))))) <= _CLEAR_SD_DEG
+            clear = (fit is not None and fit.n_lines >= _CLEAR_LINES_FACTOR * self.min_lines
+                     and _sd_deg(fit.covariance) <= _CLEAR_SD_DEG)
             if clear and fit is not None and float(np.linalg.norm(fit.delta)) <= math.radians(wide):
                 return self._update(fit, P, p0, p1, w, orientation, t_s, spend_doubt=True)
             P, fit = self._P, None  # not a clear view: as if nothing had been flagged
