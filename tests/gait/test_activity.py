@@ -150,17 +150,81 @@ def test_bad_input_is_one_clear_error() -> None:
         signals_from_imu(np.arange(20.0), np.full((20, 3), np.nan))
 
 
-@pytest.mark.skipif(not (DATA / "oxford_neckpouch").is_dir(), reason="shared real data not present")
-def test_oxford_neck_pouch_step_count_within_4_percent_of_the_foot_switches() -> None:
-    """Real data (Oxford Step Counter data set, CC BY 4.0): a phone accelerometer in a neck pouch."""
-    d = DATA / "oxford_neckpouch" / "Samsung_Dario_Hard_NeckPouch_1"
+def _oxford(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(t, acc, foot-switch step times)`` of an Oxford neck-pouch session, on the accelerometer's clock."""
+    d = DATA / "oxford_neckpouch" / name
     a = np.loadtxt(d / "accelerometer.csv", delimiter=",")
     sc = np.loadtxt(d / "stepcounter.csv", delimiter=",")
     t = (a[:, 0] - a[0, 0]) * 1e-9
     keep = np.r_[True, np.diff(t) > 0]
-    seg = segment(signals_from_imu(t[keep], a[keep, 2:5], None))
-    truth = int(np.sum(np.diff(sc[:, 1]) == 1) + np.sum(np.diff(sc[:, 2]) == 1))
-    assert sum(b.n_steps for b in seg.bouts) == pytest.approx(truth, rel=0.04)
+    ts = (sc[1:, 0] - a[0, 0]) * 1e-9
+    steps = np.sort(np.r_[ts[np.diff(sc[:, 1]) == 1], ts[np.diff(sc[:, 2]) == 1]])
+    return t[keep], a[keep, 2:5], steps
+
+
+_OXFORD = ("Pixel_Jamie_Hard_NeckPouch_1", "Pixel_Jamie_Hard_NeckPouch_2", "Samsung_Carmelo_Hard_NeckPouch_1",
+           "Samsung_Carmelo_Hard_NeckPouch_2", "Samsung_Dario_Hard_NeckPouch_1", "Samsung_Dario_Hard_NeckPouch_2")
+
+
+@pytest.mark.skipif(not (DATA / "oxford_neckpouch").is_dir(), reason="shared real data not present")
+@pytest.mark.parametrize("name", _OXFORD)
+def test_oxford_neck_pouch_step_count_within_3_percent_of_the_foot_switches(name: str) -> None:
+    """Real data (Oxford Step Counter data set, CC BY 4.0): a phone accelerometer in a neck pouch; the issue's
+    target, 3 %, on every session (held out: no threshold was chosen on them)."""
+    t, acc, truth = _oxford(name)
+    seg = segment(signals_from_imu(t, acc, None))
+    assert sum(b.n_steps for b in seg.bouts) == pytest.approx(truth.size, rel=0.03)
+
+
+@pytest.mark.skipif(not (DATA / "oxford_neckpouch").is_dir(), reason="shared real data not present")
+def test_handling_the_phone_is_no_walking() -> None:
+    """Real data (Oxford Step Counter data set, CC BY 4.0): Pixel_Jamie_1 is put into its pouch before the first
+    foot-switch step, taken out after the last, and handled in a 3 s stop mid-session; the phone turns by 60-75
+    deg each time. Without the handling rule 2, 4 and 3 steps were counted there (+3.2 %); now at most the jolt as
+    the phone drops into its pouch (one step in a stretch), and those stretches read ``unknown``."""
+    t, acc, truth = _oxford("Pixel_Jamie_Hard_NeckPouch_1")
+    seg = segment(signals_from_imu(t, acc, None))
+    steps = np.concatenate([b.steps_s for b in seg.bouts])
+    gaps = np.flatnonzero(np.diff(truth) > 2.5)
+    assert gaps.size >= 1  # the stop in the middle
+    quiet = [(0.0, truth[0] - 0.3), (truth[-1] + 0.3, t[-1])] + [(truth[i] + 0.3, truth[i + 1] - 0.3) for i in gaps]
+    grid = np.arange(0.0, t[-1], 0.1)
+    act = seg.activity_at(grid)
+    for lo, hi in quiet:
+        assert np.count_nonzero((steps > lo) & (steps < hi)) <= 1, (lo, hi, steps[(steps > lo) & (steps < hi)])
+        assert "unknown" in set(act[(grid > lo) & (grid < hi)])
+    assert steps.size == pytest.approx(truth.size, rel=0.01)
+
+
+def test_tilt_change_across_gravity_not_about_it() -> None:
+    """The gyro's rotation across gravity is the tilt change (30 deg/s for 1.5 s: 45 deg); a turn about gravity
+    at 120 deg/s is none; with an accelerometer alone, gravity's direction turning at 30 deg/s gives 45 deg."""
+    from walkmon.gait.activity import G, tilt_change_deg
+
+    fs, n = 100.0, 600
+    acc = np.tile([0.0, G, 0.0], (n, 1))
+    across = tilt_change_deg(acc, np.tile([0.0, 0.0, np.radians(30.0)], (n, 1)), fs, 1.5)
+    about = tilt_change_deg(acc, np.tile([0.0, np.radians(120.0), 0.0], (n, 1)), fs, 1.5)
+    assert across[100:500] == pytest.approx(45.0, abs=0.5)
+    assert np.max(about) < 0.5
+    ang = np.radians(30.0) * np.arange(n) / fs
+    turning = G * np.column_stack([np.sin(ang), np.cos(ang), np.zeros(n)])
+    assert tilt_change_deg(turning, None, fs, 1.5)[200:400] == pytest.approx(45.0, abs=1.0)
+
+
+def test_a_handled_stretch_cuts_off_edge_steps_and_pauses_a_bout() -> None:
+    """Steps every 0.55 s for 12 s; the sensor handled over 0.8-2.0 s (two steps before it: cut off, not a bout
+    of their own) and over 6.0-7.0 s (inside the bout: a pause shorter than 3 s, so one bout)."""
+    from walkmon.gait.activity import TrunkSignals
+
+    grid = np.arange(0.0, 12.0, 0.02)
+    sig = TrunkSignals(grid, np.zeros_like(grid), None, "acc")
+    steps = np.arange(0.0, 12.0, 0.55)
+    handled = ((grid >= 0.8) & (grid <= 2.0)) | ((grid >= 6.0) & (grid <= 7.0))
+    (b,) = bouts_from_steps(steps, sig, handled=handled)
+    inside = steps[~(((steps >= 0.8) & (steps <= 2.0)) | ((steps >= 6.0) & (steps <= 7.0)))]
+    assert b.steps_s == pytest.approx(inside[inside > 2.0])
+    assert len(bouts_from_steps(steps, sig)) == 1 and bouts_from_steps(steps, sig)[0].start_s == 0.0
 
 
 @pytest.mark.skipif(not (DATA / "mobgap").is_dir(), reason="shared real data not present")

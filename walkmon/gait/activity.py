@@ -36,9 +36,14 @@ Processing (:func:`segment`):
 5. **Turns** (El-Gohary et al. 2013, Sensors 14(1) 356-369; also mobgap's ``TdElGohary``): the heading rate
    low-passed at 1.5 Hz; a turn is a run above ``turn_edge_deg_s`` (5 deg/s) that peaks above
    ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
-6. **Timeline** at ``hop_s``: ``turning`` inside turns, ``walking`` inside bouts, ``standing`` where the trunk
+6. **Handling**: where the trunk's tilt (:func:`tilt_change_deg`; for camera angles the change of pitch and
+   roll) changes by more than ``reorient_deg`` within ``reorient_window_s``, outside turns, the sensor is being
+   handled (put on, taken off) or the wearer sits down, stands up or bends down: steps there are dropped, and so
+   are the few steps such a stretch cuts off a bout's ends; inside a bout the stretch is a pause (shorter than
+   ``max_break_s`` it joins, as above).
+7. **Timeline** at ``hop_s``: ``turning`` inside turns, ``walking`` inside bouts, ``standing`` where the trunk
    is still (step-signal RMS and, with a gyro, angular rate below the standing limits) and ``unknown``
-   otherwise (moving without a gait rhythm: sitting down, bending, handling the camera).
+   otherwise (moving without a gait rhythm: sitting down, bending, handling the camera) and where handled.
 
 Thresholds were chosen on one healthy participant's recordings (Mobilise-D lab example HA/002) and checked,
 unchanged, on the others (the MS participant and the Oxford neck-pouch sessions): ``benchmarks/bench_real_gait.py``.
@@ -73,6 +78,7 @@ __all__ = [
     "signals_from_angles",
     "signals_from_imu",
     "steady_state_steps",
+    "tilt_change_deg",
 ]
 
 ACTIVITIES = ("standing", "walking", "turning", "unknown")
@@ -116,9 +122,14 @@ class ActivitySettings:
     # an added step lies this many median steps from its neighbour (the first and last steps are slower)
     edge_rhythm: tuple[float, float] = (0.7, 1.5)
     edge_prominence: float = 0.6  # x the bout's RMS of the one-step detrended pitch (a steady step: ~2.8)
+    # IMU / accelerometer: where the trunk's tilt changes by more than this within reorient_window_s, the sensor
+    # is being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`)
+    reorient_deg: float = 45.0
+    reorient_window_s: float = 1.5
 
     def __post_init__(self) -> None:
-        for name in ("rate_hz", "window_s", "hop_s", "min_periodicity", "lowpass_factor", "max_break_s"):
+        for name in ("rate_hz", "window_s", "hop_s", "min_periodicity", "lowpass_factor", "max_break_s",
+                     "reorient_deg", "reorient_window_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 msg = f"activity setting {name} must be a finite number > 0, got {v}"
@@ -149,6 +160,9 @@ class TrunkSignals:
     tilt_deg: NDArray[np.float64] | None = None
     #: the camera's pitch itself (angles only), for the bouts' edge search (:func:`_extend_edges`)
     pitch_deg: NDArray[np.float64] | None = None
+    #: how far the trunk's tilt changes over ``reorient_window_s`` about each sample, degrees (gravity's direction
+    #: in an IMU, :func:`tilt_change_deg`; a camera's pitch and roll), for the handling rule (:func:`segment`)
+    tilt_change_deg: NDArray[np.float64] | None = None
 
     @property
     def rate_hz(self) -> float:
@@ -287,7 +301,36 @@ def signals_from_imu(
         heading = np.degrees(np.einsum("ij,ij->i", gyr_u, up))
         gnorm = np.degrees(np.linalg.norm(gyr_u, axis=1))
     tilt = np.degrees(np.column_stack([np.arcsin(np.clip(up[:, 2], -1, 1)), np.arcsin(np.clip(up[:, 0], -1, 1))]))
-    return TrunkSignals(grid, vertical, heading, "imu" if gyr is not None else "acc", gnorm, tilt)
+    change = tilt_change_deg(acc_u, None if gyr is None else gyr_u, fs, settings.reorient_window_s)
+    return TrunkSignals(grid, vertical, heading, "imu" if gyr is not None else "acc", gnorm, tilt,
+                        tilt_change_deg=change)
+
+
+def _window_ends(n: int, fs: float, window_s: float) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """The first and last sample index of a ``window_s`` window centred on each of ``n`` samples (clipped)."""
+    h = max(1, int(round(0.5 * window_s * fs)))
+    idx = np.arange(n)
+    return np.clip(idx - h, 0, n - 1), np.clip(idx + h, 0, n - 1)
+
+
+def tilt_change_deg(
+    acc: NDArray[np.float64], gyro_rad_s: NDArray[np.float64] | None, fs: float, window_s: float
+) -> NDArray[np.float64]:
+    """How far gravity's direction in the sensor moves over ``window_s`` centred on each sample, degrees.
+
+    With a gyroscope: the rotation's component across gravity integrated over the window (a turn about the
+    vertical adds nothing, the gait's to-and-fro sway cancels; acceleration does not enter). With an
+    accelerometer alone: the angle between the gravity directions (low-passed at 0.5 Hz) at the window's ends.
+    Walking moves a trunk's tilt by up to about 10 deg in a straight line and 41 deg in a tight turn (Mobilise-D
+    lab recordings, lower back); standing up, sitting down, bending down or handling the sensor by 40-90 deg."""
+    lo, hi = _window_ends(len(acc), fs, window_s)
+    if gyro_rad_s is None:
+        up = gravity_direction(acc, fs, 0.5)
+        return np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", up[lo], up[hi]), -1.0, 1.0)))
+    up = gravity_direction(acc, fs)
+    across = gyro_rad_s - np.einsum("ij,ij->i", gyro_rad_s, up)[:, None] * up
+    csum = np.vstack([np.zeros(3), np.cumsum(across, axis=0)]) / fs
+    return np.degrees(np.linalg.norm(csum[hi] - csum[lo], axis=1))
 
 
 def signals_from_angles(
@@ -307,7 +350,12 @@ def signals_from_angles(
 
     pitch = np.interp(grid, t, without_jumps(t, a[:, 0]))
     step = pitch - median_filter(pitch, size=max(3, int(settings.rate_hz)), mode="nearest")
-    return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy())
+    # the tilt's change: of pitch and roll (about the start's vertical, so a turn changes them only by the
+    # camera's own tilt; :func:`segment` leaves turns out of the handling rule for angles)
+    lo, hi = _window_ends(grid.size, settings.rate_hz, settings.reorient_window_s)
+    tilt = a_u[:, [0, 2]]
+    change = np.hypot(*(tilt[hi] - tilt[lo]).T)
+    return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change)
 
 
 def without_jumps(t_s: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -455,12 +503,16 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
 
 def bouts_from_steps(
     steps_s: ArrayLike, sig: TrunkSignals | None = None, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS,
-    *, still: NDArray[np.bool_] | None = None,
+    *, still: NDArray[np.bool_] | None = None, handled: NDArray[np.bool_] | None = None,
 ) -> tuple[Bout, ...]:
     """Walking bouts (>= ``min_steps`` steps, breaks shorter than ``max_break_s`` joined), with cadences.
     ``still``: :func:`_still_samples` of ``sig`` when the caller has it (computed here when the edge search
-    needs it)."""
+    needs it). ``handled``: per sample of ``sig``, the trunk reoriented (:func:`_handled_samples`): steps there
+    are dropped, and so are the few steps a handled stretch cuts off a bout's ends
+    (:func:`_without_handled_edges`)."""
     st = np.asarray(steps_s, dtype=float)
+    if handled is not None and sig is not None and st.size:
+        st = st[~_still_at(handled, sig.t_s, st)]
     if st.size == 0:
         return ()
     if still is None and sig is not None and sig.kind == "angles" and settings.edge_search_steps > 0:
@@ -469,6 +521,10 @@ def bouts_from_steps(
     groups = np.split(st, breaks + 1)
     amp = _step_amplitudes(st, sig, settings)
     amps = np.split(amp, breaks + 1)
+    if handled is not None and sig is not None and handled.any():
+        kept = [_without_handled_edges(g, a, sig.t_s, handled, settings.min_steps)
+                for g, a in zip(groups, amps, strict=True)]
+        groups, amps = [g for g, _ in kept], [a for _, a in kept]
     out = []
     for g, a in zip(groups, amps, strict=True):
         g = _trim_weak_edges(g, a, settings.weak_step_fraction)
@@ -489,6 +545,35 @@ def _step_amplitudes(st: NDArray[np.float64], sig: TrunkSignals | None, s: Activ
     i = np.searchsorted(sig.t_s, st)
     w = int(round(0.3 * s.rate_hz))
     return np.array([np.ptp(x[max(0, k - w) : min(x.size, k + w + 1)]) if k < x.size else np.nan for k in i])
+
+
+def _without_handled_edges(
+    g: NDArray[np.float64], a: NDArray[np.float64], t_s: NDArray[np.float64], handled: NDArray[np.bool_],
+    min_steps: int,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A group of steps (no break > ``max_break_s``) without its leading and trailing pieces of fewer than
+    ``min_steps`` steps that a handled stretch (:func:`_handled_samples`) cuts off: a step or two before
+    the sensor is put on or after it is taken off, or before sitting down. Inside a bout, a handled stretch
+    shorter than ``max_break_s`` is a pause, and pauses join bouts (the convention above)."""
+    if g.size == 0:
+        return g, a
+    done = np.concatenate([[0], np.cumsum(handled)])  # handled samples before each index
+    k = np.searchsorted(t_s, g)
+    cut = np.flatnonzero(done[k[1:]] > done[k[:-1]]) + 1  # a handled stretch lies before g[i] for i in cut
+    if cut.size == 0:
+        return g, a
+    i0, i1 = 0, g.size
+    for c in cut:
+        if c - i0 < min_steps:
+            i0 = int(c)
+        else:
+            break
+    for c in cut[::-1]:
+        if c >= i0 and i1 - c < min_steps:
+            i1 = int(c)
+        else:
+            break
+    return g[i0:i1], a[i0:i1]
 
 
 def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: float) -> NDArray[np.float64]:
@@ -587,6 +672,20 @@ def _still_samples(sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.bool_]:
         grms = np.sqrt((g2[hi] - g2[lo]) / np.maximum(hi - lo, 1))
         still &= grms < s.still_gyro_deg_s
     return np.asarray(still, dtype=bool)
+
+
+def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, ...]) -> NDArray[np.bool_] | None:
+    """Per sample of ``sig``: the trunk's tilt changing by more than ``reorient_deg`` within
+    ``reorient_window_s`` (:func:`tilt_change_deg`), outside ``turns`` and half a window about them: a turn is
+    no handling, though a tight one tilts a lower back by up to 41 deg (Mobilise-D HA/002's course) and a tilted
+    camera's start-relative pitch/roll by up to twice its tilt. None without the signal."""
+    if sig.tilt_change_deg is None:
+        return None
+    handled = np.asarray(sig.tilt_change_deg > s.reorient_deg, dtype=bool)
+    for u in turns:
+        handled[(sig.t_s >= u.start_s - 0.5 * s.reorient_window_s)
+                & (sig.t_s <= u.end_s + 0.5 * s.reorient_window_s)] = False
+    return handled
 
 
 def _still_at(still: NDArray[np.bool_], t_s: NDArray[np.float64], times: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -726,8 +825,11 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
     s = settings
     steps, tc, gait = _detect(sig, s)
     still_samples = _still_samples(sig, s)
-    bouts = bouts_from_steps(steps, sig, s, still=still_samples)
     turns = detect_turns(sig, s)
+    handled = _handled_samples(sig, s, turns)
+    if handled is not None and steps.size:
+        steps = steps[~_still_at(handled, sig.t_s, steps)]
+    bouts = bouts_from_steps(steps, sig, s, still=still_samples, handled=handled)
     grid = np.arange(sig.t_s[0], sig.t_s[-1] + 1e-9, s.hop_s)
     act = np.full(grid.shape, "unknown", dtype=object)
     # still: low step-signal RMS (and low angular rate with a gyro) over 1 s
@@ -737,6 +839,8 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
         act[(grid >= b.start_s) & (grid <= b.end_s)] = "walking"
     for u in turns:
         act[(grid >= u.start_s) & (grid <= u.end_s)] = "turning"
+    if handled is not None:
+        act[_still_at(handled, sig.t_s, grid)] = "unknown"
     notes = []
     steady = steady_state_steps(bouts, turns, s)
     if sig.heading_rate_deg_s is None:
