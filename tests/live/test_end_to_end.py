@@ -50,7 +50,7 @@ def test_bend_alert_in_time_and_cleared_none_while_standing(live_session: tuple[
     label = dict(zip(hops["t_s"], hops["label"], strict=True))
     assert label[1.0] == "not_walking" and label[2.0] == "not_walking"  # standing: no walking, no alert
     assert label[BEND_END_S - 1.0] == "bend"
-    # 4 s into the walk: normal, or unclassified while fewer than 8 steps are seen (the one classifier's minimum)
+    # 4 s into the walk: normal, or unclassified while fewer than 6 steps are seen (the one classifier's minimum)
     assert label[BEND_START_S - 1.0] in ("normal", "unclassified")
 
 
