@@ -120,7 +120,7 @@ class ActivitySettings:
     # a posture change at the same time hides from the running-median step signal (see :func:`_extend_edges`)
     edge_search_steps: int = 3  # at most this many steps added at each end of a bout (0: no search)
     # an added step lies this many median steps from its neighbour (the first and last steps are slower)
-    edge_rhythm: tuple[float, float] = (0.7, 1.5)
+    edge_rhythm: tuple[float, float] = (0.7, 1.3)
     edge_prominence: float = 0.6  # x the bout's RMS of the one-step detrended pitch (a steady step: ~2.8)
     # IMU / accelerometer: where the trunk's tilt changes by more than this within reorient_window_s, the sensor
     # is being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`)
