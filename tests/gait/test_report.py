@@ -183,8 +183,8 @@ def test_indicators_cli_errors_are_one_line(
 def test_analyze_writes_indicators_and_report(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     session = pytest.importorskip("walkmon.simulate.session")
     # a tiny clip: the plumbing is under test here (the accuracy is the benchmark's job)
-    # 12 s: 10 s left the labelled walk at exactly the 8 steps the label needs, so a 0.05 deg change of the first
-    # step's pitch (the walk's onset found one step later) flipped "normal" to "unclassified"
+    # 12 s: 10 s left the labelled walk at exactly the 8 steps the label needed (6 since 2026-11-27), so a
+    # 0.05 deg change of the first step's pitch (the walk's onset found one step later) flipped "normal" to "unclassified"
     sim = session.simulate(tmp_path / "sim", "normal", 12.0, 1, 160, 120)
     out = tmp_path / "est"
     with pytest.raises(SystemExit):  # a missing baseline fails before the rotation estimate runs

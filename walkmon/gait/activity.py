@@ -36,8 +36,8 @@ Processing (:func:`segment`):
 5. **Turns** (El-Gohary et al. 2013, Sensors 14(1) 356-369; also mobgap's ``TdElGohary``): the heading rate
    low-passed at 1.5 Hz; a turn is a run above ``turn_edge_deg_s`` (5 deg/s) that peaks above
    ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
-6. **Handling**: where the trunk's tilt (:func:`tilt_change_deg`; for camera angles the change of pitch and
-   roll) changes by more than ``reorient_deg`` within ``reorient_window_s``, outside turns, the sensor is being
+6. **Handling**: where the trunk's tilt (:func:`tilt_change_deg`; for camera angles pitch and roll) spreads over
+   more than ``reorient_deg`` within ``reorient_window_s``, outside turns, the sensor is being
    handled (put on, taken off) or the wearer sits down, stands up or bends down: steps there are dropped, and so
    are the few steps such a stretch cuts off a bout's ends; inside a bout the stretch is a pause (shorter than
    ``max_break_s`` it joins, as above).
@@ -122,8 +122,9 @@ class ActivitySettings:
     # an added step lies this many median steps from its neighbour (the first and last steps are slower)
     edge_rhythm: tuple[float, float] = (0.7, 1.3)
     edge_prominence: float = 0.6  # x the bout's RMS of the one-step detrended pitch (a steady step: ~2.8)
-    # IMU / accelerometer: where the trunk's tilt changes by more than this within reorient_window_s, the sensor
-    # is being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`)
+    # where the trunk's tilt spreads over more than this within reorient_window_s (outside turns), the sensor is
+    # being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`); the
+    # window is applied when the signals are made (signals_from_imu / signals_from_angles)
     reorient_deg: float = 45.0
     reorient_window_s: float = 1.5
 
@@ -160,8 +161,8 @@ class TrunkSignals:
     tilt_deg: NDArray[np.float64] | None = None
     #: the camera's pitch itself (angles only), for the bouts' edge search (:func:`_extend_edges`)
     pitch_deg: NDArray[np.float64] | None = None
-    #: how far the trunk's tilt changes over ``reorient_window_s`` about each sample, degrees (gravity's direction
-    #: in an IMU, :func:`tilt_change_deg`; a camera's pitch and roll), for the handling rule (:func:`segment`)
+    #: how far the trunk's tilt spreads within ``reorient_window_s`` about each sample, degrees (gravity's
+    #: direction in an IMU, :func:`tilt_change_deg`; a camera's pitch and roll), for the handling rule
     tilt_change_deg: NDArray[np.float64] | None = None
 
     @property
@@ -213,6 +214,7 @@ class Segmentation:
     #: initiation and termination) and minus steps within ``turn_margin_s`` of a turn
     steady_steps_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     still: tuple[bool, ...] = ()  # per timeline sample: the trunk still (before bouts and turns overwrite it)
+    handled: tuple[bool, ...] = ()  # per timeline sample: the sensor handled (:func:`_handled_samples`)
 
     @property
     def walking_s(self) -> float:
@@ -306,31 +308,37 @@ def signals_from_imu(
                         tilt_change_deg=change)
 
 
-def _window_ends(n: int, fs: float, window_s: float) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """The first and last sample index of a ``window_s`` window centred on each of ``n`` samples (clipped)."""
-    h = max(1, int(round(0.5 * window_s * fs)))
-    idx = np.arange(n)
-    return np.clip(idx - h, 0, n - 1), np.clip(idx + h, 0, n - 1)
+def _window_range(x: NDArray[np.float64], fs: float, window_s: float) -> NDArray[np.float64]:
+    """For each row of ``x`` (N, d), how far the signal spreads within ``window_s`` centred on it: the norm of
+    each column's max - min there (for a rotation about one axis the angle it spans, whether it comes back
+    within the window or not: a sensor lifted and put back spans its lift)."""
+    from scipy.ndimage import maximum_filter1d, minimum_filter1d
+
+    size = 2 * max(1, int(round(0.5 * window_s * fs))) + 1
+    spread = maximum_filter1d(x, size, axis=0, mode="nearest") - minimum_filter1d(x, size, axis=0, mode="nearest")
+    return np.asarray(np.linalg.norm(spread, axis=1), dtype=float)
 
 
 def tilt_change_deg(
     acc: NDArray[np.float64], gyro_rad_s: NDArray[np.float64] | None, fs: float, window_s: float
 ) -> NDArray[np.float64]:
-    """How far gravity's direction in the sensor moves over ``window_s`` centred on each sample, degrees.
+    """How far gravity's direction in the sensor spreads within ``window_s`` centred on each sample, degrees.
 
-    With a gyroscope: the rotation's component across gravity integrated over the window (a turn about the
-    vertical adds nothing, the gait's to-and-fro sway cancels; acceleration does not enter). With an
-    accelerometer alone: the angle between the gravity directions (low-passed at 0.5 Hz) at the window's ends.
-    Walking moves a trunk's tilt by up to about 10 deg in a straight line and 41 deg in a tight turn (Mobilise-D
-    lab recordings, lower back); standing up, sitting down, bending down or handling the sensor by 40-90 deg."""
-    lo, hi = _window_ends(len(acc), fs, window_s)
+    With a gyroscope: the spread of the rotation's component across gravity, integrated (a turn about the
+    vertical adds nothing, acceleration does not enter). With an accelerometer alone: the spread of gravity's
+    direction low-passed at 0.5 Hz (as the angle of its chord; none where the accelerometer reads nothing).
+    Walking spreads a trunk's tilt by up to about 15 deg in a straight line (Mobilise-D lab recordings, lower
+    back; more in tight turns, which :func:`segment` leaves out); standing up, sitting down, bending down or
+    handling the sensor by 45-90 deg."""
     if gyro_rad_s is None:
-        up = gravity_direction(acc, fs, 0.5)
-        return np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", up[lo], up[hi]), -1.0, 1.0)))
+        g = _butter(np.asarray(acc, dtype=float), fs, 0.5, "low")
+        norm = np.linalg.norm(g, axis=1, keepdims=True)
+        up = np.where(norm > 1e-6, g / np.maximum(norm, 1e-6), 0.0)
+        chord = _window_range(up, fs, window_s)
+        return np.degrees(2.0 * np.arcsin(np.clip(0.5 * chord, 0.0, 1.0)))
     up = gravity_direction(acc, fs)
     across = gyro_rad_s - np.einsum("ij,ij->i", gyro_rad_s, up)[:, None] * up
-    csum = np.vstack([np.zeros(3), np.cumsum(across, axis=0)]) / fs
-    return np.degrees(np.linalg.norm(csum[hi] - csum[lo], axis=1))
+    return np.degrees(_window_range(np.cumsum(across, axis=0) / fs, fs, window_s))
 
 
 def signals_from_angles(
@@ -351,10 +359,13 @@ def signals_from_angles(
     pitch = np.interp(grid, t, without_jumps(t, a[:, 0]))
     step = pitch - median_filter(pitch, size=max(3, int(settings.rate_hz)), mode="nearest")
     # the tilt's change: of pitch and roll (about the start's vertical, so a turn changes them only by the
-    # camera's own tilt; :func:`segment` leaves turns out of the handling rule for angles)
-    lo, hi = _window_ends(grid.size, settings.rate_hz, settings.reorient_window_s)
-    tilt = a_u[:, [0, 2]]
-    change = np.hypot(*(tilt[hi] - tilt[lo]).T)
+    # camera's own tilt; :func:`segment` leaves turns out of the handling rule), unwrapped, without the
+    # estimate's one-frame corrections and single-frame glitches
+    tilt = np.column_stack([
+        np.interp(grid, t, median_filter(without_jumps(t, np.degrees(np.unwrap(np.radians(a[:, c])))), size=5,
+                                         mode="nearest"))
+        for c in (0, 2)])
+    change = _window_range(tilt, settings.rate_hz, settings.reorient_window_s)
     return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change)
 
 
@@ -531,7 +542,7 @@ def bouts_from_steps(
         g = _trim_edges(g)
         if g.size < settings.min_steps:
             continue
-        g = _extend_edges(g, sig, settings, still)
+        g = _extend_edges(g, sig, settings, still, handled)
         out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence_from_steps(g, settings, mend=sig is None or sig.kind != "angles"),
                         _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
     return tuple(out)
@@ -592,7 +603,8 @@ def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: f
 
 
 def _extend_edges(
-    g: NDArray[np.float64], sig: TrunkSignals | None, s: ActivitySettings, still: NDArray[np.bool_] | None
+    g: NDArray[np.float64], sig: TrunkSignals | None, s: ActivitySettings, still: NDArray[np.bool_] | None,
+    handled: NDArray[np.bool_] | None = None,
 ) -> NDArray[np.float64]:
     """Camera angles: the steps of gait initiation and termination that a posture change hides, added back.
 
@@ -634,6 +646,8 @@ def _extend_edges(
     pk, _ = find_peaks(y, distance=max(1, int(s.min_step_fraction * m * fs)), prominence=s.edge_prominence * amp)
     pt = tt[pk]
     pt = pt[~_still_at(still, sig.t_s, pt)] if pt.size else pt
+    if handled is not None and pt.size:  # nor where the sensor is handled (:func:`_handled_samples`)
+        pt = pt[~_still_at(handled, sig.t_s, pt)]
     before: list[float] = []
     after: list[float] = []
     first, last = float(g[0]), float(g[-1])
@@ -675,10 +689,10 @@ def _still_samples(sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.bool_]:
 
 
 def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, ...]) -> NDArray[np.bool_] | None:
-    """Per sample of ``sig``: the trunk's tilt changing by more than ``reorient_deg`` within
+    """Per sample of ``sig``: the trunk's tilt spreading over more than ``reorient_deg`` within
     ``reorient_window_s`` (:func:`tilt_change_deg`), outside ``turns`` and half a window about them: a turn is
-    no handling, though a tight one tilts a lower back by up to 41 deg (Mobilise-D HA/002's course) and a tilted
-    camera's start-relative pitch/roll by up to twice its tilt. None without the signal."""
+    no handling, though a tight one spreads a lower back's tilt by up to 64 deg (Mobilise-D HA/002's course) and a
+    tilted camera's start-relative pitch/roll by up to twice its tilt. None without the signal."""
     if sig.tilt_change_deg is None:
         return None
     handled = np.asarray(sig.tilt_change_deg > s.reorient_deg, dtype=bool)
@@ -839,14 +853,14 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
         act[(grid >= b.start_s) & (grid <= b.end_s)] = "walking"
     for u in turns:
         act[(grid >= u.start_s) & (grid <= u.end_s)] = "turning"
-    if handled is not None:
-        act[_still_at(handled, sig.t_s, grid)] = "unknown"
+    handled_grid = _still_at(handled, sig.t_s, grid) if handled is not None else np.zeros(grid.shape, bool)
+    act[handled_grid] = "unknown"
     notes = []
     steady = steady_state_steps(bouts, turns, s)
     if sig.heading_rate_deg_s is None:
         notes.append("no heading (accelerometer only): turns not detected, no yaw")
     return Segmentation(tuple(bouts), turns, steps, grid, tuple(str(a) for a in act), sig.kind, tuple(notes), steady,
-                        tuple(bool(v) for v in still))
+                        tuple(bool(v) for v in still), tuple(bool(v) for v in handled_grid))
 
 
 def steady_state_steps(

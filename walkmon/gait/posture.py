@@ -44,7 +44,7 @@ steady_state_steps`). A left/right difference of step SWING is not evidence: hea
 (the pitch cycles of the healthy Mobilise-D participant HA/002's lower-back sensor alternate 2.3 : 1 in Test5).
 Weak evidence gives ``unclassified`` with the reason. With fewer than ``min_steps`` (6: three strides) steps nothing
 is labelled (``unclassified``: too little walking). It was 8 until 2026-11-27; 6 labels the 4-5 s straight stretches
-between turns (video labels on the unkind sessions 76 -> 80 %, held-out seeds 73 -> 76 %; the healthy HA/002's
+between turns (video labels on the unkind sessions 75 -> 79 %, held-out seeds 73 -> 76 %; the healthy HA/002's
 6-step walk reads normal), and 5 or 4 changed nothing more there.
 
 This is the one classifier of walkmon: the offline analysis (per bout and posture segment) and the live

@@ -547,13 +547,17 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 
 
 def _pause_intervals(activity: NDArray, seg: Segmentation) -> list[tuple[float, float]]:
-    """Standing stretches inside bouts (the pauses :func:`_settle_timeline` found), as (start, end) times."""
+    """Standing stretches inside bouts (the pauses :func:`_settle_timeline` found) and stretches where the sensor
+    was handled inside them (``seg.handled``), as (start, end) times."""
     grid = np.asarray(seg.timeline_t_s, dtype=float)
     if grid.size < 2:
         return []
     hop = float(grid[1] - grid[0])
     out = []
-    for i0, i1 in _runs(np.asarray(activity) == "standing"):
+    paused = np.asarray(activity) == "standing"
+    if len(seg.handled) == grid.size:
+        paused |= np.asarray(seg.handled, dtype=bool)
+    for i0, i1 in _runs(paused):
         t0, t1 = float(grid[i0]) - 0.5 * hop, float(grid[i1 - 1]) + 0.5 * hop
         if any(b.start_s < t0 and t1 < b.end_s for b in seg.bouts):
             out.append((t0, t1))
@@ -1225,7 +1229,8 @@ def _settle_timeline(activity: NDArray, seg: Segmentation, s: SessionSettings) -
       recording's edge and a bout is ``walking`` (the step detector needs half a window of context, so the
       contacts nearest the edges are not found; the walker was walking).
 
-    Longer stretches stay ``unknown`` (sitting down, bending, handling the camera).
+    Longer stretches stay ``unknown`` (sitting down, bending, handling the camera), and so does any stretch the
+    segmentation found the sensor handled in (``seg.handled``: tilted by more than its limit).
     """
     out = activity.copy()
     grid = np.asarray(seg.timeline_t_s, dtype=float)
@@ -1233,6 +1238,7 @@ def _settle_timeline(activity: NDArray, seg: Segmentation, s: SessionSettings) -
         return out
     hop = float(grid[1] - grid[0])
     still = np.asarray(seg.still, dtype=bool) if len(seg.still) == grid.size else np.zeros(grid.size, bool)
+    handled = np.asarray(seg.handled, dtype=bool) if len(seg.handled) == grid.size else np.zeros(grid.size, bool)
     min_still = int(round(0.5 / hop))
     for b in seg.bouts:
         st = np.asarray(b.steps_s, dtype=float)
@@ -1254,7 +1260,7 @@ def _settle_timeline(activity: NDArray, seg: Segmentation, s: SessionSettings) -
             out[(grid > t0) & (grid < t1) & (out == "walking")] = "standing"
     max_n = int(round(s.transition_s / hop))
     for i0, i1 in _runs(out == "unknown"):
-        if i1 - i0 > max_n:
+        if i1 - i0 > max_n or handled[i0:i1].any():
             continue
         before = out[i0 - 1] if i0 > 0 else "edge"
         after = out[i1] if i1 < out.size else "edge"
