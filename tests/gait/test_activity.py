@@ -434,6 +434,10 @@ def test_a_camera_lifted_and_put_back_is_handled_not_walked(at_s: float) -> None
     seg = segment(signals_from_angles(t, _lifted(t, model.truth_angles_deg(t), at_s)))
     steps = np.concatenate([b.steps_s for b in seg.bouts])
     assert not np.any(np.abs(steps - at_s) < 0.35), steps[np.abs(steps - at_s) < 1.0]
+    handled = np.asarray(seg.timeline_t_s)[np.asarray(seg.handled)]
+    assert handled.size and handled.min() < at_s < handled.max()
+    near = np.abs(steps[:, None] - handled[None, :]).min(axis=1) < 0.05  # no step inside the handled stretch
+    assert not near.any(), steps[near]
     assert seg.activity_at([at_s])[0] == "unknown"
     timeline = analyze_session(t, _lifted(t, model.truth_angles_deg(t), at_s)).timeline
     nearest = min(timeline, key=lambda row: abs(row[0] - at_s))
@@ -442,17 +446,19 @@ def test_a_camera_lifted_and_put_back_is_handled_not_walked(at_s: float) -> None
 
 def test_camera_roll_near_180_deg_is_no_handling() -> None:
     """Angles that wrap at +-180 deg (a camera mounted upside down: roll 180 +- a few degrees) are unwrapped:
-    the walk's bout is found as with the camera upright, not taken for handling."""
+    the walk's bout and the whole timeline are as with the camera upright (no handling, standing still reads
+    standing)."""
     from walkmon.simulate.gait import GaitModel
 
     model = GaitModel("normal", 16.0, 2)
     t = np.arange(0.0, model.duration_s, 1 / 30)
     a = model.truth_angles_deg(t)
-    upright = segment(signals_from_angles(t, a)).bouts
+    upright = segment(signals_from_angles(t, a))
     wrapped = a.copy()
     wrapped[:, 2] = (wrapped[:, 2] + 180.0 + 180.0) % 360.0 - 180.0
-    (b,) = segment(signals_from_angles(t, wrapped)).bouts
-    assert len(upright) == 1 and b.n_steps == upright[0].n_steps
+    seg = segment(signals_from_angles(t, wrapped))
+    assert len(upright.bouts) == 1 and len(seg.bouts) == 1 and seg.bouts[0].n_steps == upright.bouts[0].n_steps
+    assert seg.activity == upright.activity  # standing still reads standing upside down too
 
 
 @pytest.mark.skipif(not (DATA / "oxford_neckpouch").is_dir(), reason="shared real data not present")

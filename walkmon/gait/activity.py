@@ -326,7 +326,9 @@ def tilt_change_deg(
 
     With a gyroscope: the spread of the rotation's component across gravity, integrated (a turn about the
     vertical adds nothing, acceleration does not enter). With an accelerometer alone: the spread of gravity's
-    direction low-passed at 0.5 Hz (as the angle of its chord; none where the accelerometer reads nothing).
+    direction low-passed at 0.5 Hz (as the angle of its chord; the low-pass shrinks a lift and return within a
+    second to about half, so with an accelerometer alone mostly one-way tilts and slower handling are caught;
+    an accelerometer that reads nothing for 1.5 s or more reads as handled about it).
     Walking spreads a trunk's tilt by up to about 15 deg in a straight line (Mobilise-D lab recordings, lower
     back; more in tight turns, which :func:`segment` leaves out); standing up, sitting down, bending down or
     handling the sensor by 45-90 deg."""
@@ -347,9 +349,10 @@ def signals_from_angles(
     """Trunk signals of a camera's (pitch, yaw, roll) series in degrees: pitch is the step signal, the yaw
     rate the heading rate."""
     t = _check(t_s, angles_deg)
-    a = np.asarray(angles_deg, dtype=float)
+    # unwrapped (a camera upside down reads roll +-180 deg): the rates, the tilt and the resampling stay smooth
+    a = np.degrees(np.unwrap(np.radians(np.asarray(angles_deg, dtype=float)), axis=0))
     grid, a_u = _resample(t, a, settings.rate_hz)
-    yaw = _butter(np.degrees(np.unwrap(np.radians(a_u[:, 1]))), settings.rate_hz, 3.0, "low")  # +-180 wraps
+    yaw = _butter(a_u[:, 1], settings.rate_hz, 3.0, "low")
     heading = np.gradient(yaw, 1.0 / settings.rate_hz)
     rate = np.degrees(np.linalg.norm(np.gradient(np.radians(a_u), 1.0 / settings.rate_hz, axis=0), axis=1))
     # a posture change mid-walk (bending down by 15-20 deg within a second) would swamp the 1-2 deg step rhythm
@@ -359,12 +362,12 @@ def signals_from_angles(
     pitch = np.interp(grid, t, without_jumps(t, a[:, 0]))
     step = pitch - median_filter(pitch, size=max(3, int(settings.rate_hz)), mode="nearest")
     # the tilt's change: of pitch and roll (about the start's vertical, so a turn changes them only by the
-    # camera's own tilt; :func:`segment` leaves turns out of the handling rule), unwrapped, without the
-    # estimate's one-frame corrections and single-frame glitches
-    tilt = np.column_stack([
-        np.interp(grid, t, median_filter(without_jumps(t, np.degrees(np.unwrap(np.radians(a[:, c])))), size=5,
-                                         mode="nearest"))
-        for c in (0, 2)])
+    # camera's own tilt; :func:`segment` leaves turns out of the handling rule), without the estimate's one-frame
+    # corrections and single-frame glitches (a running median over ~0.1 s: 3 frames at 30 fps)
+    fps = (t.size - 1) / max(float(t[-1] - t[0]), 1e-9)
+    glitch = max(3, int(round(0.1 * fps)) | 1)
+    tilt = np.column_stack([np.interp(grid, t, median_filter(without_jumps(t, a[:, c]), size=glitch, mode="nearest"))
+                            for c in (0, 2)])
     change = _window_range(tilt, settings.rate_hz, settings.reorient_window_s)
     return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change)
 
@@ -691,7 +694,7 @@ def _still_samples(sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.bool_]:
 def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, ...]) -> NDArray[np.bool_] | None:
     """Per sample of ``sig``: the trunk's tilt spreading over more than ``reorient_deg`` within
     ``reorient_window_s`` (:func:`tilt_change_deg`), outside ``turns`` and half a window about them: a turn is
-    no handling, though a tight one spreads a lower back's tilt by up to 64 deg (Mobilise-D HA/002's course) and a
+    no handling, though a tight one spreads a lower back's tilt by up to 50 deg (Mobilise-D HA/002's course) and a
     tilted camera's start-relative pitch/roll by up to twice its tilt. None without the signal."""
     if sig.tilt_change_deg is None:
         return None
