@@ -194,6 +194,8 @@ def test_handling_the_phone_is_no_walking() -> None:
     for lo, hi in quiet:
         assert np.count_nonzero((steps > lo) & (steps < hi)) <= 1, (lo, hi, steps[(steps > lo) & (steps < hi)])
         assert "unknown" in set(act[(grid > lo) & (grid < hi)])
+    # the jolt 0.4 s after the phone is in its pouch, 2.2 median steps before the first step, is no step either
+    assert not np.any(steps < truth[0] - 0.3), steps[:3]
     assert steps.size == pytest.approx(truth.size, rel=0.01)
 
 
@@ -477,3 +479,18 @@ def test_session_timeline_keeps_handling_unknown() -> None:
     first = truth[0] - 0.5
     before = [row[1] for row in res.timeline if row[0] < first - 0.5]
     assert before and "unknown" in before and "walking" not in before, before
+
+
+def test_a_lone_step_just_after_handling_is_dropped() -> None:
+    """Steps every 0.55 s from 3.0 s, and one 'step' at 2.2 s (1.45 median steps before them, the jolt of a sensor
+    settling): dropped when a handled stretch ends 0.3 s before it, kept without one (a slow first step)."""
+    from walkmon.gait.activity import TrunkSignals
+
+    grid = np.arange(0.0, 12.0, 0.02)
+    sig = TrunkSignals(grid, np.zeros_like(grid), None, "acc")
+    steps = np.r_[2.2, np.arange(3.0, 12.0, 0.55)]
+    handled = (grid >= 1.0) & (grid <= 1.9)
+    (b,) = bouts_from_steps(steps, sig, handled=handled)
+    assert b.start_s == pytest.approx(3.0)
+    (b,) = bouts_from_steps(steps, sig)
+    assert b.start_s == pytest.approx(2.2)

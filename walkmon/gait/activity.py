@@ -39,8 +39,9 @@ Processing (:func:`segment`):
 6. **Handling**: where the trunk's tilt (:func:`tilt_change_deg`; for camera angles pitch and roll) spreads over
    more than ``reorient_deg`` within ``reorient_window_s``, outside turns, the sensor is being
    handled (put on, taken off) or the wearer sits down, stands up or bends down: steps there are dropped, and so
-   are the few steps such a stretch cuts off a bout's ends; inside a bout the stretch is a pause (shorter than
-   ``max_break_s`` it joins, as above).
+   are the few steps such a stretch cuts off a bout's ends and a lone edge step just beside it
+   (:func:`_beside_handled`); inside a bout the stretch is a pause (shorter than ``max_break_s`` it joins, as
+   above).
 7. **Timeline** at ``hop_s``: ``turning`` inside turns, ``walking`` inside bouts, ``standing`` where the trunk
    is still (step-signal RMS and, with a gyro, angular rate below the standing limits) and ``unknown``
    otherwise (moving without a gait rhythm: sitting down, bending, handling the camera) and where handled.
@@ -539,6 +540,9 @@ def bouts_from_steps(
         kept = [_without_handled_edges(g, a, sig.t_s, handled, settings.min_steps)
                 for g, a in zip(groups, amps, strict=True)]
         groups, amps = [g for g, _ in kept], [a for _, a in kept]
+        trimmed = [_beside_handled(g, sig.t_s, handled) for g in groups]
+        amps = [a[np.isin(g, t)] for g, a, t in zip(groups, amps, trimmed, strict=True)]
+        groups = trimmed
     out = []
     for g, a in zip(groups, amps, strict=True):
         g = _trim_weak_edges(g, a, settings.weak_step_fraction)
@@ -588,6 +592,28 @@ def _without_handled_edges(
         else:
             break
     return g[i0:i1], a[i0:i1]
+
+
+def _beside_handled(g: NDArray[np.float64], t_s: NDArray[np.float64], handled: NDArray[np.bool_],
+                    near_s: float = 0.5, rhythm: float = 1.3) -> NDArray[np.float64]:
+    """A bout's first or last step dropped when it lies within ``near_s`` (about a step) of a handled stretch and
+    more than ``rhythm`` x the bout's median step from its neighbour (the edge search's bound): the jolt as a
+    sensor settles after handling, or the trunk swinging back up after picking something up (found in review:
+    such a step 20 ms after a handled stretch started a bout 1.7 s early)."""
+    if g.size < 4:
+        return g
+    m = float(np.median(np.diff(g)))
+    done = np.concatenate([[0], np.cumsum(handled)])
+
+    def near(t: float) -> bool:
+        i0, i1 = np.searchsorted(t_s, [t - near_s, t + near_s])
+        return bool(done[i1] > done[i0])
+
+    if g[1] - g[0] > rhythm * m and near(float(g[0])):
+        g = g[1:]
+    if g[-1] - g[-2] > rhythm * m and near(float(g[-1])):
+        g = g[:-1]
+    return g
 
 
 def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: float) -> NDArray[np.float64]:
