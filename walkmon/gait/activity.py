@@ -40,7 +40,7 @@ Processing (:func:`segment`):
    more than ``reorient_deg`` within ``reorient_window_s``, outside turns, the sensor is being
    handled (put on, taken off) or the wearer sits down, stands up or bends down: steps there are dropped, and so
    are the few steps such a stretch cuts off a bout's ends and a lone edge step just beside it
-   (:func:`_beside_handled`); inside a bout the stretch is a pause (shorter than ``max_break_s`` it joins, as
+   (:func:`_without_handled_edges`); inside a bout the stretch is a pause (shorter than ``max_break_s`` it joins, as
    above).
 7. **Timeline** at ``hop_s``: ``turning`` inside turns, ``walking`` inside bouts, ``standing`` where the trunk
    is still (step-signal RMS and, with a gyro, angular rate below the standing limits) and ``unknown``
@@ -360,15 +360,15 @@ def signals_from_angles(
     # of pitch: take the rhythm about the pitch's 1 s running median (one step or more at >= 60 steps/min)
     from scipy.ndimage import median_filter
 
-    pitch = np.interp(grid, t, without_jumps(t, a[:, 0]))
+    smooth = [without_jumps(t, a[:, c]) for c in (0, 2)]  # pitch, roll
+    pitch = np.interp(grid, t, smooth[0])
     step = pitch - median_filter(pitch, size=max(3, int(settings.rate_hz)), mode="nearest")
     # the tilt's change: of pitch and roll (about the start's vertical, so a turn changes them only by the
     # camera's own tilt; :func:`segment` leaves turns out of the handling rule), without the estimate's one-frame
     # corrections and single-frame glitches (a running median over ~0.1 s: 3 frames at 30 fps)
     fps = (t.size - 1) / max(float(t[-1] - t[0]), 1e-9)
     glitch = max(3, int(round(0.1 * fps)) | 1)
-    tilt = np.column_stack([np.interp(grid, t, median_filter(without_jumps(t, a[:, c]), size=glitch, mode="nearest"))
-                            for c in (0, 2)])
+    tilt = np.column_stack([np.interp(grid, t, median_filter(x, size=glitch, mode="nearest")) for x in smooth])
     change = _window_range(tilt, settings.rate_hz, settings.reorient_window_s)
     return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change)
 
@@ -537,12 +537,9 @@ def bouts_from_steps(
     amp = _step_amplitudes(st, sig, settings)
     amps = np.split(amp, breaks + 1)
     if handled is not None and sig is not None and handled.any():
-        kept = [_without_handled_edges(g, a, sig.t_s, handled, settings.min_steps)
-                for g, a in zip(groups, amps, strict=True)]
+        done = np.concatenate([[0], np.cumsum(handled)])  # handled samples before each index of sig.t_s
+        kept = [_without_handled_edges(g, a, sig.t_s, done, settings) for g, a in zip(groups, amps, strict=True)]
         groups, amps = [g for g, _ in kept], [a for _, a in kept]
-        trimmed = [_beside_handled(g, sig.t_s, handled) for g in groups]
-        amps = [a[np.isin(g, t)] for g, a, t in zip(groups, amps, trimmed, strict=True)]
-        groups = trimmed
     out = []
     for g, a in zip(groups, amps, strict=True):
         g = _trim_weak_edges(g, a, settings.weak_step_fraction)
@@ -566,54 +563,45 @@ def _step_amplitudes(st: NDArray[np.float64], sig: TrunkSignals | None, s: Activ
 
 
 def _without_handled_edges(
-    g: NDArray[np.float64], a: NDArray[np.float64], t_s: NDArray[np.float64], handled: NDArray[np.bool_],
-    min_steps: int,
+    g: NDArray[np.float64], a: NDArray[np.float64], t_s: NDArray[np.float64], done: NDArray[np.int64],
+    s: ActivitySettings, near_s: float = 0.5,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """A group of steps (no break > ``max_break_s``) without its leading and trailing pieces of fewer than
-    ``min_steps`` steps that a handled stretch (:func:`_handled_samples`) cuts off: a step or two before
-    the sensor is put on or after it is taken off, or before sitting down. Inside a bout, a handled stretch
-    shorter than ``max_break_s`` is a pause, and pauses join bouts (the convention above)."""
+    """A group of steps (no break > ``max_break_s``) and their amplitudes ``a`` without what a handled stretch
+    (:func:`_handled_samples`; ``done``: the count of handled samples of ``t_s`` before each index) leaves at its
+    ends: leading and trailing pieces of fewer than ``min_steps`` steps that such a stretch cuts off (a step or
+    two before the sensor is put on or after it is taken off, or before sitting down), then a lone first or last
+    step within ``near_s`` (about a step) of such a stretch and more than the edge search's upper bound
+    (``edge_rhythm``) x the median step from its neighbour: the jolt as a sensor settles after handling, or the
+    trunk swinging back up after picking something up (found in review: such a step 20 ms after a handled
+    stretch started a bout 1.7 s early). Inside a bout, a handled stretch shorter than ``max_break_s`` is a
+    pause, and pauses join bouts (the convention above)."""
     if g.size == 0:
         return g, a
-    done = np.concatenate([[0], np.cumsum(handled)])  # handled samples before each index
     k = np.searchsorted(t_s, g)
     cut = np.flatnonzero(done[k[1:]] > done[k[:-1]]) + 1  # a handled stretch lies before g[i] for i in cut
-    if cut.size == 0:
-        return g, a
     i0, i1 = 0, g.size
     for c in cut:
-        if c - i0 < min_steps:
+        if c - i0 < s.min_steps:
             i0 = int(c)
         else:
             break
     for c in cut[::-1]:
-        if c >= i0 and i1 - c < min_steps:
+        if c >= i0 and i1 - c < s.min_steps:
             i1 = int(c)
         else:
             break
+    if i1 - i0 >= 4:
+        m = float(np.median(np.diff(g[i0:i1])))
+
+        def near(t: float) -> bool:
+            j0, j1 = np.searchsorted(t_s, [t - near_s, t + near_s])
+            return bool(done[j1] > done[j0])
+
+        if g[i0 + 1] - g[i0] > s.edge_rhythm[1] * m and near(float(g[i0])):
+            i0 += 1
+        if g[i1 - 1] - g[i1 - 2] > s.edge_rhythm[1] * m and near(float(g[i1 - 1])):
+            i1 -= 1
     return g[i0:i1], a[i0:i1]
-
-
-def _beside_handled(g: NDArray[np.float64], t_s: NDArray[np.float64], handled: NDArray[np.bool_],
-                    near_s: float = 0.5, rhythm: float = 1.3) -> NDArray[np.float64]:
-    """A bout's first or last step dropped when it lies within ``near_s`` (about a step) of a handled stretch and
-    more than ``rhythm`` x the bout's median step from its neighbour (the edge search's bound): the jolt as a
-    sensor settles after handling, or the trunk swinging back up after picking something up (found in review:
-    such a step 20 ms after a handled stretch started a bout 1.7 s early)."""
-    if g.size < 4:
-        return g
-    m = float(np.median(np.diff(g)))
-    done = np.concatenate([[0], np.cumsum(handled)])
-
-    def near(t: float) -> bool:
-        i0, i1 = np.searchsorted(t_s, [t - near_s, t + near_s])
-        return bool(done[i1] > done[i0])
-
-    if g[1] - g[0] > rhythm * m and near(float(g[0])):
-        g = g[1:]
-    if g[-1] - g[-2] > rhythm * m and near(float(g[-1])):
-        g = g[:-1]
-    return g
 
 
 def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: float) -> NDArray[np.float64]:
