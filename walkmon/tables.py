@@ -193,7 +193,8 @@ def imu_file_kind(path: str | Path) -> str:
 
 def read_acc_csv(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(t (N,) s, acc (N,3) m/s²) of an accelerometer-only file; non-finite values or time stamps that do not
-    increase are one clear error (InvalidInputError)."""
+    increase are one clear error (InvalidInputError); rows the imu.csv reader's plausibility rules reject (out of
+    range, no gravity) are skipped and counted, and fewer than 10 plausible rows are an error."""
     cols = read_table(path, ACC_COLUMNS)
     t = np.asarray(cols["t"], dtype=float)
     acc = np.column_stack([cols["ax"], cols["ay"], cols["az"]]).astype(float)
@@ -206,7 +207,18 @@ def read_acc_csv(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.floa
     if np.any(np.diff(t) <= 0):
         msg = f"{path}: accelerometer timestamps must strictly increase"
         raise InvalidInputError(msg)
-    return t, acc
+    from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
+
+    keep, why = plausible_rows(t, None, acc)  # the imu.csv reader's rules: out of range, no gravity (a dead sensor)
+    if why:
+        _log.warning("%s: %d of %d accelerometer rows skipped as implausible (%s)", path, sum(why.values()), len(t),
+                     ", ".join(f"{k} {v}" for k, v in sorted(why.items())))
+    if int(keep.sum()) < 10:
+        msg = (f"{path}: {int(keep.sum())} plausible accelerometer rows of {len(t)} "
+               f"({', '.join(f'{k} {v}' for k, v in sorted(why.items()))}); need at least 10 (a dead sensor reads "
+               "all zeros; columns are t,ax,ay,az in s, m/s2)")
+        raise InvalidInputError(msg)
+    return t[keep], acc[keep]
 
 
 def read_accelerometer_calibration(path: str | Path) -> AccelerometerCalibration:

@@ -84,6 +84,16 @@ def test_dead_imu_file_is_refused_for_imu_only_analysis(tmp_path: Path, cli) -> 
     res.one_line_error("0 plausible IMU rows of 500", "no_gravity 500")
 
 
+def test_dead_accelerometer_only_file_is_refused(tmp_path: Path, cli) -> None:
+    """The accelerometer-only reader applies the imu.csv reader's plausibility rules (it raised a confusing
+    error about angles, with a numpy warning, before)."""
+    acc = tmp_path / "zeros.csv"
+    acc.write_text("t,ax,ay,az\n" + "".join(f"{i / 100:.2f},0,0,0\n" for i in range(500)))
+    res = cli("analyze", "--imu", acc, "--out", tmp_path / "out")
+    res.one_line_error("0 plausible accelerometer rows of 500", "no_gravity 500")
+    assert "RuntimeWarning" not in res.err
+
+
 def test_imu_that_does_not_overlap_the_video_is_an_error_not_zero_angles(walk: Path, tmp_path: Path, cli) -> None:
     out = tmp_path / "out"
     res = cli("analyze", walk / "video.mp4", "--imu", walk / "imu.csv", "--imu-offset-s", "1e9", "--out", out,
