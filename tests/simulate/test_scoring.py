@@ -13,6 +13,7 @@ from walkmon.simulate.scoring import (
     segment_label_accuracy,
     true_posture_segments,
     truth_cadence_between,
+    truth_stride_cadence_between,
 )
 
 FPS = 10.0
@@ -89,3 +90,42 @@ def test_truth_cadence_skips_pauses_and_cadence_errors() -> None:
                           steps, bout)
     assert [round(e.error_pct, 3) for e in errs] == [1.0, -1.0]  # the last two have < 4 true steps
     assert errs[0].n_true_steps == 10 and errs[1].true_cadence_spm == pytest.approx(100.0)
+
+
+def test_stride_cadence_is_the_mean_over_strides_not_steps_over_time() -> None:
+    # 8 steps at 110 spm then 8 at 80 spm in one true bout: the field's definition (INDIP, Mobilise-D) averages
+    # 120 / stride over the 14 strides; steps over time divides 15 intervals by their total duration.
+    d = np.r_[np.full(8, 60.0 / 110.0), np.full(7, 60.0 / 80.0)]
+    steps = np.r_[0.0, np.cumsum(d)] + 2.0
+    bout = np.zeros(steps.size, int)
+    strides = steps[2:] - steps[:-2]
+    by_hand = sum(120.0 / s for s in strides) / strides.size
+    cad, n = truth_stride_cadence_between(steps, bout, 0.0, 30.0)
+    assert n == 14 and cad == pytest.approx(by_hand)
+    steps_over_time = 60.0 * 15 / (steps[-1] - steps[0])
+    assert by_hand - steps_over_time > 1.0  # the two definitions really differ here
+    err_stride = cadence_errors([(steps[0], steps[-1], by_hand)], steps, bout)
+    err_steps = cadence_errors([(steps[0], steps[-1], by_hand)], steps, bout, definition="steps")
+    assert abs(err_stride[0].error_pct) < 1e-9 and err_steps[0].error_pct > 1.0
+    # a stride spanning two true bouts (a pause) is not a stride
+    bout2 = np.r_[np.zeros(8, int), np.ones(8, int)]
+    assert truth_stride_cadence_between(steps, bout2, 0.0, 30.0)[1] == 12
+    with pytest.raises(ValueError, match="definition"):
+        cadence_errors([(0.0, 1.0, 100.0)], steps, bout, definition="median")
+
+
+def test_cadence_errors_keep_a_true_edge_step_detected_a_little_late() -> None:
+    # gait initiation: a slow first stride; the estimate detects the first step 20 ms late and starts there
+    d = np.r_[0.8, 0.7, np.full(12, 0.5)]
+    steps = np.r_[0.0, np.cumsum(d)] + 1.0
+    bout = np.zeros(steps.size, int)
+    strides = steps[2:] - steps[:-2]
+    whole = float(np.mean(120.0 / strides))
+    err = cadence_errors([(steps[0] + 0.02, steps[-1], whole)], steps, bout)
+    assert err[0].n_true_steps == steps.size and abs(err[0].error_pct) < 1e-9
+    # without the tolerance the first true step falls out and the truth reads faster than the walk
+    strict = cadence_errors([(steps[0] + 0.02, steps[-1], whole)], steps, bout, edge_tolerance_s=0.0)
+    assert strict[0].error_pct < -1.0
+    # a step the estimate missed altogether (0.8 s before its first detected step) stays outside
+    late = cadence_errors([(steps[1] + 0.02, steps[-1], whole)], steps, bout)
+    assert late[0].n_true_steps == steps.size - 1

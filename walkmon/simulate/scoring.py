@@ -5,7 +5,9 @@ Pure functions (no I/O) on plain arrays and lists, so that any estimator can be 
 * :func:`activity_per_second` - the share of seconds whose estimated activity is the true one;
 * :func:`posture_change_errors` - how far each true posture change point is from the nearest estimated one;
 * :func:`segment_label_accuracy` - the share of true posture segments whose overlapping estimate has their label;
-* :func:`cadence_errors` - each estimated bout's cadence against the true steps inside it.
+* :func:`cadence_errors` - each estimated bout's cadence against the true steps of its stretch, by the field's
+  definition (Mobilise-D and the INDIP reference: the mean over strides of 120 / stride duration) or as steps
+  over walking time.
 
 Segments and bouts are ``(start_s, end_s, label)`` / ``(start_s, end_s, cadence_spm)`` tuples.
 """
@@ -29,6 +31,7 @@ __all__ = [
     "segment_label_accuracy",
     "true_posture_segments",
     "truth_cadence_between",
+    "truth_stride_cadence_between",
 ]
 
 
@@ -136,6 +139,28 @@ def truth_cadence_between(
     return 60.0 * dt.size / float(dt.sum()), int(dt.size)
 
 
+def truth_stride_cadence_between(
+    step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s: float
+) -> tuple[float, int]:
+    """``(cadence in steps/min, strides)`` of the true steps in ``[start_s, end_s]`` by the field's definition:
+    the mean over strides (a step and the one two later, of the same true bout) of 120 / stride duration. This
+    is how Mobilise-D defines a walking bout's cadence and how the INDIP reference reports it (its cadence
+    equals this mean of its own initial contacts), and what walkmon reports. It differs from steps over time
+    (:func:`truth_cadence_between`) where the cadence changes within a bout: half 110 and half 80 steps/min
+    gives 95 here and 92.6 there. nan with no whole stride."""
+    t = np.asarray(step_times_s, dtype=float)
+    bout = np.asarray(step_bout)
+    inside = (t >= start_s) & (t <= end_s)
+    t, bout = t[inside], bout[inside]
+    if t.size < 3:
+        return float("nan"), 0
+    same = bout[2:] == bout[:-2]
+    stride = (t[2:] - t[:-2])[same]
+    if stride.size == 0:
+        return float("nan"), 0
+    return float(np.mean(120.0 / stride)), int(stride.size)
+
+
 @dataclass(frozen=True, slots=True)
 class CadenceError:
     """One estimated bout scored against the truth."""
@@ -150,15 +175,33 @@ class CadenceError:
 
 def cadence_errors(
     est_bouts: Sequence[tuple[float, float, float]], step_times_s: ArrayLike, step_bout: ArrayLike,
-    min_steps: int = 4,
+    min_steps: int = 4, *, definition: str = "stride", edge_tolerance_s: float = 0.25,
 ) -> list[CadenceError]:
-    """Every estimated bout with at least ``min_steps`` true steps inside, with its cadence error in percent
-    (estimate / truth - 1) against :func:`truth_cadence_between` over the same interval."""
+    """Every estimated bout with at least ``min_steps`` true steps of its own, with its cadence error in percent
+    (estimate / truth - 1). The bout's true steps are those in ``[start_s - edge_tolerance_s, end_s +
+    edge_tolerance_s]``: a bout starts and ends at detected steps, and a first step detected 20 ms after the
+    true one must not drop that true step (and with it the slow first stride of gait initiation) from the
+    truth. The default 0.25 s is half the shortest simulated step, so a step the estimate did not detect at
+    all stays outside. ``definition`` is ``"stride"`` (:func:`truth_stride_cadence_between`, the field's
+    definition and walkmon's) or ``"steps"`` (:func:`truth_cadence_between`, steps over walking time)."""
+    if definition not in ("stride", "steps"):
+        msg = f"definition must be 'stride' or 'steps', not {definition!r}"
+        raise ValueError(msg)
+    t = np.asarray(step_times_s, dtype=float)
     out = []
     for a, b, cad in est_bouts:
-        true, n = truth_cadence_between(step_times_s, step_bout, a, b)
-        if n + 1 < min_steps or not np.isfinite(true):
+        lo, hi = a - edge_tolerance_s, b + edge_tolerance_s
+        n_steps = int(np.sum((t >= lo) & (t <= hi)))
+        _, n = truth_cadence_between(t, step_bout, lo, hi)
+        if n + 1 < min_steps:
+            continue
+        if definition == "stride":
+            true, _ = truth_stride_cadence_between(t, step_bout, lo, hi)
+        else:
+            true, _ = truth_cadence_between(t, step_bout, lo, hi)
+        if not np.isfinite(true):
             continue
         err = 100.0 * (cad / true - 1.0) if cad is not None and np.isfinite(cad) else float("inf")
-        out.append(CadenceError(float(a), float(b), float(cad) if cad is not None else float("nan"), true, err, n + 1))
+        out.append(CadenceError(float(a), float(b), float(cad) if cad is not None else float("nan"), true, err,
+                                n_steps))
     return out
