@@ -103,6 +103,34 @@ def test_cadence_does_not_split_a_gait_initiation_gap() -> None:
     assert cadence_from_steps(found) == pytest.approx(_true_cadence(truth), rel=0.02)
 
 
+def test_cadence_of_a_bout_that_changes_pace_keeps_the_slow_strides() -> None:
+    """A limp giving way to a normal walk within one bout (strides of 1.46 and 1.09 s): every stride is walking
+    and counts. Against the bout's median stride the slow ones read as pauses (1.34 x) and the cadence came out
+    3 % fast; a real pause (2 s) is still left out."""
+    limp = np.cumsum(np.tile([0.66, 0.80], 8))
+    normal = limp[-1] + np.cumsum(np.full(16, 0.545))
+    truth = np.r_[0.0, limp, normal] + 3.0
+    assert cadence_from_steps(truth) == pytest.approx(_true_cadence(truth), rel=0.005)
+    paused = np.r_[truth, truth[-1] + 2.0 + np.cumsum(np.full(12, 0.545))]
+    strides = paused[2:] - paused[:-2]
+    want = float(np.mean(120.0 / strides[strides < 2.5]))  # the two strides over the pause left out
+    assert cadence_from_steps(paused) == pytest.approx(want, rel=0.002)
+
+
+def test_video_cadence_leaves_out_strides_off_the_rhythm() -> None:
+    """Camera angles (``mend=False``): where the pitch waveform changes phase a maximum goes missing (an
+    interval of 1.5 steps) or a run of them does (every other step, for 3 s): those strides are left out, not
+    mended, and not taken for the rhythm."""
+    rng = np.random.default_rng(5)
+    truth = 2.0 + np.cumsum(0.6 + rng.normal(0.0, 0.01, 40))
+    want = _true_cadence(truth)
+    assert cadence_from_steps(truth, mend=False) == pytest.approx(want, rel=0.005)
+    phase = np.r_[truth[:15], truth[16:] - 0.3]  # one maximum lost, the rest half a step late
+    assert cadence_from_steps(phase, mend=False) == pytest.approx(want, rel=0.01)
+    run = np.delete(truth, [21, 23, 25, 27, 29])  # five maxima of one foot missing in a row
+    assert cadence_from_steps(run, mend=False) == pytest.approx(want, rel=0.01)
+
+
 @pytest.mark.skipif(not (DATA / "mobgap").is_dir(), reason="shared real data not present")
 @pytest.mark.parametrize(("pid", "ref_bout_pct"), [("HA/002", 5.0), ("MS/001", None)])
 def test_daily_living_course_cadence_against_indip(pid: str, ref_bout_pct: float | None) -> None:
