@@ -40,6 +40,7 @@ import os
 import platform
 import sys
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -164,6 +165,59 @@ def run_analysis(d: Path, source: str, fresh: bool) -> tuple[Path, float]:
             msg = f"walkmon {' '.join(argv)} failed with exit code {rc}"
             raise RuntimeError(msg)
     return out, time.perf_counter() - t0
+
+
+# ----------------------------------------------------------------------------------------------- live
+LIVE_TRUTH_S = 4.0  # a hop is scored when the last 4 s were >= 75 % walking, >= 90 % of it in one posture
+
+
+def live_replay(out_dir: Path, truth: Truth) -> dict[str, int]:
+    """The video's angles (``angles.csv`` of ``analyze``) replayed through the live stage sample by sample, as
+    ``walkmon live`` runs it; each walking hop counted as ``"TRUE>LIVE"`` (true posture of the last
+    ``LIVE_TRUTH_S`` against the hop's label)."""
+    from walkmon.gait.live import LiveIndicatorStage  # noqa: PLC0415
+
+    x = read_table(out_dir / "angles.csv", ["t", "pitch", "yaw", "roll"])
+    tt = truth.t
+    act = np.asarray(truth.activity, dtype=object)
+    lab = np.asarray(truth.label, dtype=object)
+    stage = LiveIndicatorStage()
+    out: Counter[str] = Counter()
+    for t, p, y, r in zip(x["t"], x["pitch"], x["yaw"], x["roll"], strict=True):
+        hop = stage.push(float(t), (float(p), float(y), float(r)))
+        if hop is None or not hop.walking:
+            continue
+        w = (tt > t - LIVE_TRUTH_S) & (tt <= t)
+        m = w & (act == "walking")
+        if not m.any() or m.sum() < 0.75 * w.sum():
+            continue
+        names, counts = np.unique(lab[m], return_counts=True)
+        if counts.max() < 0.9 * m.sum():
+            continue
+        out[f"{names[int(np.argmax(counts))]}>{hop.label}"] += 1
+    return dict(out)
+
+
+def _live_lines(rows: list[dict]) -> list[str]:
+    tot: Counter[str] = Counter()
+    for r in rows:
+        tot.update(r.get("live") or {})
+    if not tot:
+        return []
+    pairs = {tuple(k.split(">")): v for k, v in tot.items()}
+    n = sum(pairs.values())
+    right = sum(v for (a, b), v in pairs.items() if a == b)
+    normal = sum(v for (a, _), v in pairs.items() if a == "normal")
+    false = sum(v for (a, b), v in pairs.items() if a == "normal" and b not in ("normal", "unclassified"))
+    unc = sum(v for (_, b), v in pairs.items() if b == "unclassified")
+    return [
+        "Live monitor replay (the video's angles through the live stage, sample by sample; a walking hop is scored "
+        f"when the last {LIVE_TRUTH_S:g} s were walking in one true posture):",
+        "",
+        "| hops scored | label right | unclassified | pathology labels on true normal walking |",
+        "|---|---|---|---|",
+        f"| {n} | {right} ({100.0 * right / n:.0f} %) | {unc} | {false} of {normal} |",
+    ]
 
 
 # ----------------------------------------------------------------------------------------------- score
@@ -308,6 +362,8 @@ def main() -> int:
                 r = {"walk": walk, "seed": seed, "source": source, "script": script,
                      "duration_s": truth.duration_s, "estimate": est.kind, "simulate_s": round(t_sim, 1),
                      "analyze_s": round(t_an, 1), **score(truth, est)}
+                if source == "video" and (out / "angles.csv").is_file():
+                    r["live"] = live_replay(out, truth)
                 rows.append(r)
                 print(_row_line(r), flush=True)
     summary = summarise(rows)
@@ -341,6 +397,7 @@ def main() -> int:
         "",
         *_summary_lines(summary),
         "",
+        *(_live_lines(rows) + [""] if _live_lines(rows) else []),
         *table,
         "",
         env,
@@ -353,7 +410,7 @@ def main() -> int:
         json.dumps({"summary": summary, "rows": rows, "targets": TARGETS, "environment": env}, indent=1,
                    default=lambda v: None) + "\n", encoding="utf-8")
     print()
-    print("\n".join(_summary_lines(summary)))
+    print("\n".join(_summary_lines(summary) + _live_lines(rows)))
     print(env)
     return 0
 

@@ -191,3 +191,45 @@ def test_live_windows_agree_with_the_offline_analysis_of_the_whole_walk(walk: st
     for k, ax in ((0, "pitch"), (2, "roll")):  # yaw: live keeps heading changes, offline detrends them
         assert np.median([r.inclination_deg[k] for r in res]) == pytest.approx(
             offline["axes"][ax]["inclination_mean"], abs=0.5)
+
+
+@pytest.mark.parametrize("seed", [1, 4])  # seated reclined (+23 deg: walks read bent) and slumped (-33 deg)
+@pytest.mark.parametrize(("script", "stands_before_walking"), [
+    ("stand:0.5,sit:12,pause:1.5,stand:3,normal:20", True),  # stands up, stands a moment, walks off
+    ("stand:0.5,sit:12,normal:12,pause:4,normal:10", False),  # walks off from the seat; a pause later
+])
+def test_a_still_stance_far_from_the_walking_posture_is_no_upright_reference(
+    script: str, stands_before_walking: bool, seed: int
+) -> None:
+    """A wearer who starts the monitor seated (simulator truth: the chest 22-35 deg from upright) is still, and
+    that stance was taken for upright: every normal walk after it read bent forward (or leaning back). Walking
+    that reads more than ``still_tilt_deg`` from the reference rejects it: no posture label, and the next still
+    stance near the walking posture (the one just before walking, when it is still in the window, else the
+    next pause) becomes the reference."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel(script, seed=seed)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(2).normal(0, 0.02, (t.size, 3))
+    sit = next(p for p in model.pieces if p.activity == "unknown")
+    out = run_stage(t, a)
+    events = [r.calibration for r in out if r.calibration is not None]
+    assert events[0].reason == "start" and sit.start_s < events[0].t_s < sit.end_s  # taken while seated
+    walking = [r for r in out if r.walking]
+    assert walking and not any(r.label in ("bend", "left_shoulder_down", "right_foot_drag") for r in walking), \
+        [(r.t_s, r.label) for r in walking]
+    again = [e for e in events[1:] if e.reason == "posture"]
+    assert len(again) == 1 and again[0].t_s > sit.end_s
+    upright = model.truth_angles_deg(np.array([again[0].t_s]))[0]
+    assert np.allclose(again[0].angles_deg, upright, atol=2.0)  # the new reference is the standing pose
+    first_walk = next(p for p in model.pieces if p.activity == "walking")
+    normal = [r for r in walking if r.label == "normal"]
+    if stands_before_walking:  # labelled from the first classified window on
+        assert sum(r.label == "unclassified" for r in walking if r.t_s < first_walk.start_s + 6) <= 2
+        assert len(normal) >= 0.8 * len(walking)
+    else:  # unclassified (with the reason) until the pause, then normal
+        pause = next(p for p in model.pieces if p.activity == "standing" and p.start_s > first_walk.start_s)
+        before = [r for r in walking if r.t_s < pause.start_s]
+        assert before and all(r.label == "unclassified" for r in before)
+        assert any("no standing stance" in r.reasons[0] for r in before)
+        assert normal and min(r.t_s for r in normal) > pause.start_s
