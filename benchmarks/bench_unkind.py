@@ -14,10 +14,10 @@ and the result is scored against the true timeline (truth_timeline.csv, truth_st
 * posture segment labels right (true segments >= 4 s) - target >= 95 %;
 * cadence per estimated bout against the true steps of its stretch (pauses left out) - target within 1 %. The
   truth uses the field's definition, the one walkmon reports and the real data's INDIP reference uses: the mean
-  over strides of 120 / stride duration. The true steps of a bout are those within 0.25 s of its ends (a first
-  step detected 20 ms late must not drop the true one). The same bouts scored as steps over walking time are
-  printed beside it (a walk whose cadence changes mid-bout reads lower that way: a different quantity, not a
-  different accuracy).
+  over strides of 120 / stride duration. The true steps of a bout run from the true step its first detected
+  step times (the nearest, within half a step) to the one its last times (a first step detected 20 ms late must
+  not drop the true one). The same bouts scored as steps over walking time are printed beside it (a walk whose
+  cadence changes mid-bout reads lower that way: a different quantity, not a different accuracy).
 
 THE ADAPTER. What is scored is whatever :func:`estimate` returns. Today (main) ``analyze`` treats the recording
 as one walk: :func:`estimate_today_whole_recording` turns its indicators.json (walking_interval_s, one label,
@@ -390,7 +390,8 @@ def main() -> int:
         (f"Targets (issue 11): activity per second >= {TARGETS['activity_pct']:g} %, posture change points within "
          f"{TARGETS['boundary_s']:g} s, segment labels (true segments >= {MIN_SEGMENT_S:g} s) >= "
          f"{TARGETS['labels_pct']:g} %, cadence per bout within {TARGETS['cadence_pct']:g} % (each estimated bout "
-         "against the true steps within 0.25 s of its ends, pauses left out, by the field's definition: the mean "
+         "against its own true steps, from the one its first detected step times to the one its last times, pauses "
+         "left out, by the field's definition: the mean "
          "over strides of 120 / stride duration, as walkmon reports it and as INDIP reports the real data; the "
          "column beside it scores the same bouts as steps over walking time, a different quantity where the "
          "cadence changes within a bout)."),

@@ -114,7 +114,7 @@ def test_stride_cadence_is_the_mean_over_strides_not_steps_over_time() -> None:
         cadence_errors([(0.0, 1.0, 100.0)], steps, bout, definition="median")
 
 
-def test_cadence_errors_keep_a_true_edge_step_detected_a_little_late() -> None:
+def test_cadence_errors_match_the_bout_edges_to_the_true_steps_they_time() -> None:
     # gait initiation: a slow first stride; the estimate detects the first step 20 ms late and starts there
     d = np.r_[0.8, 0.7, np.full(12, 0.5)]
     steps = np.r_[0.0, np.cumsum(d)] + 1.0
@@ -123,9 +123,14 @@ def test_cadence_errors_keep_a_true_edge_step_detected_a_little_late() -> None:
     whole = float(np.mean(120.0 / strides))
     err = cadence_errors([(steps[0] + 0.02, steps[-1], whole)], steps, bout)
     assert err[0].n_true_steps == steps.size and abs(err[0].error_pct) < 1e-9
-    # without the tolerance the first true step falls out and the truth reads faster than the walk
-    strict = cadence_errors([(steps[0] + 0.02, steps[-1], whole)], steps, bout, edge_tolerance_s=0.0)
+    # strictly inside the bout's ends the first true step falls out and the truth reads faster than the walk
+    strict = cadence_errors([(steps[0] + 0.02, steps[-1], whole)], steps, bout, match_edges=False)
     assert strict[0].error_pct < -1.0
     # a step the estimate missed altogether (0.8 s before its first detected step) stays outside
     late = cadence_errors([(steps[1] + 0.02, steps[-1], whole)], steps, bout)
     assert late[0].n_true_steps == steps.size - 1
+    # video: every detected step a phase of 0.2 s (0.4 step) after its contact; the true steps are still the
+    # bout's own, one for one
+    err = cadence_errors([(steps[2] + 0.2, steps[-3] + 0.2, 120.0)], steps, bout)
+    assert err[0].n_true_steps == steps.size - 4
+    assert err[0].true_cadence_spm == pytest.approx(float(np.mean(120.0 / strides[2:-2])))

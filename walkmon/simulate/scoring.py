@@ -173,24 +173,36 @@ class CadenceError:
     n_true_steps: int
 
 
+def _edge_step(t: NDArray[np.float64], x: float) -> float:
+    """The true step nearest ``x`` when ``x`` lies within half a step of it (the step an estimated edge step
+    times), else ``x`` itself (an edge before the first or after the last true step)."""
+    if t.size == 0:
+        return x
+    i = int(np.argmin(np.abs(t - x)))
+    gaps = [abs(float(t[j] - t[i])) for j in (i - 1, i + 1) if 0 <= j < t.size]
+    return float(t[i]) if not gaps or abs(float(t[i]) - x) <= 0.5 * min(gaps) else x
+
+
 def cadence_errors(
     est_bouts: Sequence[tuple[float, float, float]], step_times_s: ArrayLike, step_bout: ArrayLike,
-    min_steps: int = 4, *, definition: str = "stride", edge_tolerance_s: float = 0.25,
+    min_steps: int = 4, *, definition: str = "stride", match_edges: bool = True,
 ) -> list[CadenceError]:
     """Every estimated bout with at least ``min_steps`` true steps of its own, with its cadence error in percent
-    (estimate / truth - 1). The bout's true steps are those in ``[start_s - edge_tolerance_s, end_s +
-    edge_tolerance_s]``: a bout starts and ends at detected steps, and a first step detected 20 ms after the
-    true one must not drop that true step (and with it the slow first stride of gait initiation) from the
-    truth. The default 0.25 s is half the shortest simulated step, so a step the estimate did not detect at
-    all stays outside. ``definition`` is ``"stride"`` (:func:`truth_stride_cadence_between`, the field's
-    definition and walkmon's) or ``"steps"`` (:func:`truth_cadence_between`, steps over walking time)."""
+    (estimate / truth - 1). A bout starts and ends at detected steps; its true steps run from the true step its
+    first detected step times (the nearest, within half a step) to the one its last times. Taking only the
+    true steps strictly inside ``[start_s, end_s]`` (``match_edges=False``), a first step detected 20 ms after
+    the true one dropped that true step, and the slow first stride of gait initiation with it, from the truth;
+    and the video's steps (pitch maxima) lie a bout-specific phase of up to a quarter of a step off the
+    contacts, so no fixed tolerance fits them. ``definition`` is ``"stride"``
+    (:func:`truth_stride_cadence_between`, the field's definition and walkmon's) or ``"steps"``
+    (:func:`truth_cadence_between`, steps over walking time)."""
     if definition not in ("stride", "steps"):
         msg = f"definition must be 'stride' or 'steps', not {definition!r}"
         raise ValueError(msg)
     t = np.asarray(step_times_s, dtype=float)
     out = []
     for a, b, cad in est_bouts:
-        lo, hi = a - edge_tolerance_s, b + edge_tolerance_s
+        lo, hi = (_edge_step(t, a) - 1e-9, _edge_step(t, b) + 1e-9) if match_edges else (a, b)
         n_steps = int(np.sum((t >= lo) & (t <= hi)))
         _, n = truth_cadence_between(t, step_bout, lo, hi)
         if n + 1 < min_steps:
