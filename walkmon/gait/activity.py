@@ -820,7 +820,8 @@ def cadence_from_steps(
       median / ``hurried_factor`` (a hurried first or last stride of gait initiation/termination). The median is
       local because a walker changes pace within a bout (a limp giving way to a normal walk: strides of 1.45 and
       1.1 s), and against the bout's median the slower half's strides read as pauses and were dropped, which
-      read such bouts 2-4 % fast (simulated unkind sessions, seeds 1-5).
+      read such bouts 2-4 % fast (simulated unkind sessions, seeds 1-5); it is kept within ``pause_factor`` x the
+      bout's median, so that a few hesitations in a row do not become the rhythm.
     * **Camera angles** (``mend=False``): the video's pitch maxima are not heel strikes; mending them made bout
       cadence worse (unkind video sessions: within 1 % 84 -> 77 % of bouts). Where the pitch waveform changes
       phase (a posture change, a turn) a maximum goes missing or doubles, leaving an interval 1.5 or 0.5 steps
@@ -830,6 +831,7 @@ def cadence_from_steps(
       become the rhythm) is left out, pauses included; with fewer than 2 strides left, as for trunk
       acceleration."""
     st = np.asarray(steps_s, dtype=float)
+    st = st[np.isfinite(st)]
     if st.size < 2:
         return float("nan")
     s = settings
@@ -844,7 +846,10 @@ def cadence_from_steps(
         if stride.size >= 2:
             return float(np.mean(120.0 / stride))
     stride = d[1:] + d[:-1]
-    med = _local_median(stride, s.pause_window_strides)
+    whole = float(np.median(stride))
+    # local, but within pause_factor of the bout's: two hesitations a step apart make four long strides in a
+    # row, which must not become the rhythm (a walker who freezes now and then read 8 % slow)
+    med = np.clip(_local_median(stride, s.pause_window_strides), whole / s.pause_factor, whole * s.pause_factor)
     stride = stride[(stride <= s.pause_factor * med) & (stride >= med / s.hurried_factor)]
     return float(np.mean(120.0 / stride)) if stride.size else float("nan")
 
