@@ -233,3 +233,36 @@ def test_a_still_stance_far_from_the_walking_posture_is_no_upright_reference(
         assert before and all(r.label == "unclassified" for r in before)
         assert any("no standing stance" in r.reasons[0] for r in before)
         assert normal and min(r.t_s for r in normal) > pause.start_s
+        # and no posture to alert on meanwhile: the wearer walking upright is not told to straighten up
+        rejected = [r for r in before if "no standing stance" in r.reasons[0]]
+        assert all(math.isnan(r.posture_deg[0]) and math.isnan(r.posture_deg[2]) for r in rejected)
+        assert all(math.isfinite(r.posture_deg[0]) for r in walking if r.t_s > again[0].t_s + 1.0)
+    from walkmon.live.alerts import AlertStage
+
+    alerts = AlertStage()
+    raised = [e for r in out for e in alerts.push(r) if e.state == "raised"]
+    assert raised == [], raised
+
+
+def test_a_calibration_request_while_the_reference_is_rejected_keeps_its_name() -> None:
+    """The wearer's own request (SIGUSR1) made while a seated reference is rejected is logged as a request
+    when the next still stance near the walking posture answers it."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("stand:0.5,sit:12,normal:12,pause:4,normal:10", seed=1)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(2).normal(0, 0.02, (t.size, 3))
+    stage = LiveIndicatorStage()
+    events, asked = [], False
+    for ti, ai in zip(t, a, strict=True):
+        r = stage.push(ti, ai)
+        if r is None:
+            continue
+        if r.calibration is not None:
+            events.append(r.calibration)
+        if not asked and r.reasons and "no standing stance" in r.reasons[0]:
+            assert not stage.calibrated  # a rejected reference is no calibration
+            stage.request_calibration()
+            asked = True
+    assert asked and [e.reason for e in events] == ["start", "request"]
+    assert stage.calibrated

@@ -300,7 +300,7 @@ class LiveIndicatorStage:
         self._reference = np.zeros(3)
         self._calibrated = False
         self._calibration_pending = "start"
-        self._pending_event: CalibrationEvent | None = None
+        self._pending_events: collections.deque[CalibrationEvent] = collections.deque()
         self._last_steps = np.zeros(0)
         # gravity's direction in the start frame, learnt from the turns seen so far (see :meth:`_learn_vertical`)
         self._turn_axes: list[tuple[NDArray[np.float64], float]] = []
@@ -311,6 +311,7 @@ class LiveIndicatorStage:
         # it, what the next still stance must be close to (see :meth:`_check_reference`)
         self._rejected: tuple[float, float] | None = None
         self._calibrated_at_s = math.nan
+        self._near_checked_s = -math.inf  # the last still stance checked against the walking posture
 
     @property
     def reference_deg(self) -> NDArray[np.float64]:
@@ -372,16 +373,20 @@ class LiveIndicatorStage:
             return
         a = np.asarray(self._a, dtype=float)[recent]
         if np.all(a.std(axis=0) <= s.calibration_max_std_deg):
-            if self._rejected is not None and not self._near_walking(t, recent):
-                return  # still, but as far from the walking posture as the rejected reference: sitting again
+            if self._rejected is not None:
+                if t[-1] - self._near_checked_s < 0.1:  # checked 10 times a second, not at every frame
+                    return
+                self._near_checked_s = float(t[-1])
+                if not self._near_walking(t, recent):
+                    return  # still, but as far from the walking posture as the rejected reference: sitting again
             self._reference = a.mean(axis=0)
             self._calibrated = True
             self._calibrated_at_s = float(t[-1])
             self._rejected = None
-            self._pending_event = CalibrationEvent(
+            self._pending_events.append(CalibrationEvent(
                 float(t[-1]), tuple(float(v) for v in self._reference), self._calibration_pending,  # type: ignore[arg-type]
                 float(t[-1] - t[recent][0]),
-            )
+            ))
             self._calibration_pending = ""
 
     def _near_walking(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> bool:
@@ -416,9 +421,10 @@ class LiveIndicatorStage:
                 self._calibrated = True
                 self._calibrated_at_s = float(t[j])
                 self._rejected = None
+                reason = "request" if self._calibration_pending == "request" else "posture"
                 self._calibration_pending = ""
-                self._pending_event = CalibrationEvent(float(t[j]), tuple(float(v) for v in self._reference),  # type: ignore[arg-type]
-                                                       "posture", float(t[j] - t[recent][0]))
+                self._pending_events.append(CalibrationEvent(float(t[j]), tuple(float(v) for v in self._reference),  # type: ignore[arg-type]
+                                                             reason, float(t[j] - t[recent][0])))
                 return True
         return False
 
@@ -428,11 +434,14 @@ class LiveIndicatorStage:
         s = self.settings
         if self._rejected is None and not max(abs(incl[0]), abs(incl[1])) > s.still_tilt_deg:
             return None
+        where = (f"the still stance at {self._calibrated_at_s:.1f} s" if math.isfinite(self._calibrated_at_s)
+                 else "the first frame")
         if self._rejected is None:
             self._rejected = incl
-            self._calibration_pending = "posture"
-        where = (f"the still stance at {self._calibrated_at_s:.1f} s" if self._calibrated and
-                 math.isfinite(self._calibrated_at_s) else "the first frame")
+            self._calibrated = False
+            if self._calibration_pending != "request":  # a wearer's own request keeps its name in the log
+                self._calibration_pending = "posture"
+
         return (f"walking reads {self._rejected[0]:.0f} / {self._rejected[1]:.0f} deg (pitch / roll) from the upright "
                 f"reference ({where}), more than {s.still_tilt_deg:g} deg: that was no standing stance (sitting, bent "
                 "down), so no posture label until the next still stance near the walking posture re-calibrates")
@@ -472,8 +481,6 @@ class LiveIndicatorStage:
         # the activity first: its segmentation learns gravity's direction from a turn that just ended, which the
         # posture below then uses in the same hop
         activity, span = self._activity(t, np.asarray(self._a, dtype=float), t_now)
-        recent = t >= t_now - s.posture_window_s
-        posture = tuple(float(v) for v in self._posture(t, recent)) if recent.any() else nan3
         walk_part = u[grid >= t_now - s.walking_window_s]
         gait_rms = max(gait_band_rms_deg(walk_part[:, k], fs, s.gait_band_hz) for k in (0, 2)) if len(walk_part) else 0.0
         walking = bool(gait_rms >= s.walking_min_rms_deg)
@@ -515,7 +522,13 @@ class LiveIndicatorStage:
                         incl = tuple(ind.axes[ax].inclination_mean for ax in AXES)  # type: ignore[assignment]
                 elif why is not None:
                     label, reasons = "unclassified", (why,)
-        event, self._pending_event = self._pending_event, None
+        # the posture the alerts react to, from the reference as it stands after this hop (a rejected one gives
+        # no pitch and roll: a wearer who started the monitor seated must not be told to straighten up)
+        recent = t >= t_now - s.posture_window_s
+        posture = tuple(float(v) for v in self._posture(t, recent)) if recent.any() else nan3
+        if self._rejected is not None:
+            posture = (math.nan, posture[1], math.nan)
+        event = self._pending_events.popleft() if self._pending_events else None
         return LiveIndicators(
             t_s=float(t_now),
             window_s=float(t[-1] - t[0]),
