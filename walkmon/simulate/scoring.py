@@ -120,20 +120,25 @@ def segment_label_accuracy(
     return (100.0 * right / n if n else float("nan")), n
 
 
+def _spans(step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s: float, k: int) -> NDArray[np.float64]:
+    """Durations from each true step in ``[start_s, end_s]`` to the one ``k`` steps later, of the same true bout
+    only (1: steps, 2: strides)."""
+    t = np.asarray(step_times_s, dtype=float)
+    bout = np.asarray(step_bout)
+    inside = (t >= start_s) & (t <= end_s)
+    t, bout = t[inside], bout[inside]
+    if t.size <= k:
+        return np.zeros(0)
+    return (t[k:] - t[:-k])[bout[k:] == bout[:-k]]
+
+
 def truth_cadence_between(
     step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s: float
 ) -> tuple[float, int]:
     """``(cadence in steps/min, intervals)`` of the true steps in ``[start_s, end_s]``, from the intervals between
     consecutive steps of the same true bout only (an estimated bout spanning a pause is scored on the walking
     either side of it, not on the pause). nan when fewer than 2 steps."""
-    t = np.asarray(step_times_s, dtype=float)
-    bout = np.asarray(step_bout)
-    inside = (t >= start_s) & (t <= end_s)
-    t, bout = t[inside], bout[inside]
-    if t.size < 2:
-        return float("nan"), 0
-    same = bout[1:] == bout[:-1]
-    dt = np.diff(t)[same]
+    dt = _spans(step_times_s, step_bout, start_s, end_s, 1)
     if dt.size == 0:
         return float("nan"), 0
     return 60.0 * dt.size / float(dt.sum()), int(dt.size)
@@ -148,14 +153,7 @@ def truth_stride_cadence_between(
     equals this mean of its own initial contacts), and what walkmon reports. It differs from steps over time
     (:func:`truth_cadence_between`) where the cadence changes within a bout: half 110 and half 80 steps/min
     gives 95 here and 92.6 there. nan with no whole stride."""
-    t = np.asarray(step_times_s, dtype=float)
-    bout = np.asarray(step_bout)
-    inside = (t >= start_s) & (t <= end_s)
-    t, bout = t[inside], bout[inside]
-    if t.size < 3:
-        return float("nan"), 0
-    same = bout[2:] == bout[:-2]
-    stride = (t[2:] - t[:-2])[same]
+    stride = _spans(step_times_s, step_bout, start_s, end_s, 2)
     if stride.size == 0:
         return float("nan"), 0
     return float(np.mean(120.0 / stride)), int(stride.size)
