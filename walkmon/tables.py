@@ -18,7 +18,7 @@ from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -207,6 +207,7 @@ def read_acc_csv(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.floa
     if np.any(np.diff(t) <= 0):
         msg = f"{path}: accelerometer timestamps must strictly increase"
         raise InvalidInputError(msg)
+    _, acc = _in_si_units(path, t, None, acc)
     from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
 
     keep, why = plausible_rows(t, None, acc)  # the imu.csv reader's rules: out of range, no gravity (a dead sensor)
@@ -292,6 +293,20 @@ class ImuFile:
         return sum(self.rejected.values())
 
 
+def _in_si_units(path: str | Path, t: NDArray[np.float64], gyro: NDArray[np.float64] | None,
+                 acc: NDArray[np.float64]) -> tuple[Any, NDArray[np.float64]]:
+    """The columns in rad/s and m/s² whatever the file used (g, deg/s: :mod:`walkmon.imu.units`, each conversion
+    logged); InvalidInputError for time stamps that cannot be seconds."""
+    from walkmon.imu.units import infer_units  # noqa: PLC0415  (pure)
+
+    if len(t) < 2:
+        return gyro, acc
+    units = infer_units(t, gyro, acc, source=str(path))
+    for note in units.notes:
+        _log.warning("%s", note)
+    return (None if gyro is None else gyro * units.gyro_scale), acc * units.acc_scale
+
+
 def read_imu_file(path: str | Path, *, min_rows: int = 1) -> ImuFile:
     """Read imu.csv keeping only plausible rows (see the module docstring); InvalidInputError (one line) for
     an unreadable file or one with fewer than ``min_rows`` plausible rows."""
@@ -301,6 +316,7 @@ def read_imu_file(path: str | Path, *, min_rows: int = 1) -> ImuFile:
     gyro = np.column_stack([cols["gx"], cols["gy"], cols["gz"]]) if len(t) else np.zeros((0, 3))
     accel = np.column_stack([cols["ax"], cols["ay"], cols["az"]]) if len(t) else np.zeros((0, 3))
     n_total = len(t) + sum(rejected.values())  # rows read + rows read_table skipped as malformed
+    gyro, accel = _in_si_units(path, t, gyro, accel)
     from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
 
     keep, why = plausible_rows(t, gyro, accel)

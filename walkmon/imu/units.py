@@ -1,0 +1,100 @@
+"""The units of a recorded IMU file, checked from the data before anything is computed from it.
+
+``imu.csv`` is documented as seconds, rad/s and m/s², but recordings from other tools come in other units: the
+Mobilise-D files hold g and deg/s, many loggers and phones g, and a few milliseconds. Read as SI, an
+accelerometer in g has a gravity of 1 m/s² and a gyroscope in deg/s turns 57 times too fast: the analysis then ran
+and reported nothing (no step, no bout) or nonsense, with exit code 0. The data says which units they are:
+
+* **accelerometer**: a worn sensor feels gravity, so over a recording the median magnitude of the specific force
+  is about 1 g (walking adds accelerations both ways; BROAD's hand-held trials 9.8-9.9, the Mobilise-D lower-back
+  walks 9.6 m/s²). Between 0.5 and 2 it is in g, between 4.9 and 19.6 in m/s²; anything else is left as it is
+  (the plausibility rules refuse a dead sensor).
+* **gyroscope**: the accelerometer's own gravity direction ``u`` turns as the gyroscope says, ``du/dt = -w x u``
+  (both low-passed at 1 Hz). Over the recording, the path the gyroscope gives that direction (the sum of
+  ``|w x u|``) against the path the accelerometer shows (the sum of ``|du/dt|``) is 0.22-1.49 in rad/s on every
+  recording at hand (the Mobilise-D walks 0.47-0.71, BROAD's hand-held trials 0.37-1.03, including the fast
+  translations whose linear accelerations swamp gravity's direction, and 132 simulated walks 0.22-1.49) and 57.3
+  times that in deg/s (12.6 and more): above 4.3, the geometric middle of the gap, it is deg/s. Magnitudes only,
+  so it holds where the two directions hardly correlate (a straight walk's small tilts: the least-squares scale
+  of one against the other was tried first and missed two of the simulated walks in deg/s).
+* **time**: an IMU sampled more slowly than 10 Hz cannot time steps; a median interval above 0.1 s is refused
+  with a hint (milliseconds or nanoseconds are the usual cause) rather than guessed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from walkmon.consts import GRAVITY_MS2
+from walkmon.errors import InvalidInputError
+
+__all__ = ["Units", "infer_units"]
+
+#: Gyroscope path over accelerometer path above this: deg/s (rad/s recordings 0.22-1.49, deg/s 12.6 and more).
+_DEG_PATH_RATIO = 4.3
+_MAX_INTERVAL_S = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class Units:
+    """Factors that bring a file's columns to m/s² and rad/s, and what was found (one line each, for the log)."""
+
+    acc_scale: float = 1.0
+    gyro_scale: float = 1.0
+    notes: tuple[str, ...] = ()
+
+
+def _path_ratio(t: np.ndarray, gyro: np.ndarray, acc: np.ndarray) -> float:
+    """The path the gyroscope gives gravity's direction over the path the accelerometer shows (see the module
+    text); nan when it cannot be measured (too few samples, below 2.5 Hz, no gravity)."""
+    from scipy.signal import butter, sosfiltfilt  # noqa: PLC0415
+
+    if len(t) < 30 or not np.all(np.diff(t) > 0):
+        return float("nan")
+    fs = (len(t) - 1) / float(t[-1] - t[0])
+    if fs <= 2.5:
+        return float("nan")
+    sos = butter(2, 1.0, fs=fs, output="sos")
+    a = sosfiltfilt(sos, acc, axis=0)
+    norm = np.linalg.norm(a, axis=1, keepdims=True)
+    if not np.all(norm > 0):
+        return float("nan")
+    u = a / norm
+    shown = float(np.sum(np.linalg.norm(np.gradient(u, t, axis=0), axis=1)))
+    given = float(np.sum(np.linalg.norm(np.cross(sosfiltfilt(sos, gyro, axis=0), u), axis=1)))
+    return given / shown if shown > 0 else float("nan")
+
+
+def infer_units(t_s: ArrayLike, gyro: ArrayLike | None, acc: ArrayLike, *, source: str = "IMU file") -> Units:
+    """The factors to m/s² and rad/s of a recording's columns (see the module text); InvalidInputError (one
+    line) for time stamps too far apart to be seconds of a gait recording."""
+    t = np.asarray(t_s, dtype=float)
+    a = np.asarray(acc, dtype=float)
+    notes: list[str] = []
+    if t.size >= 2:
+        dt = float(np.median(np.diff(t)))
+        if dt > _MAX_INTERVAL_S:
+            msg = (f"{source}: samples {dt:g} apart on median ({1.0 / dt:.3g} per unit of t): t must be in seconds "
+                   f"and the IMU sampled at 10 Hz or more (is t in milliseconds or nanoseconds?)")
+            raise InvalidInputError(msg)
+    acc_scale = 1.0
+    ok = np.isfinite(a).all(axis=1)
+    if ok.sum() >= 10:
+        med = float(np.median(np.linalg.norm(a[ok], axis=1)))
+        if 0.5 <= med <= 2.0:
+            acc_scale = GRAVITY_MS2
+            notes.append(f"{source}: accelerometer in g (median magnitude {med:.2f}): converted to m/s2")
+    gyro_scale = 1.0
+    if gyro is not None:
+        g = np.asarray(gyro, dtype=float)
+        ok &= np.isfinite(g).all(axis=1)
+        if ok.sum() >= 10:
+            ratio = _path_ratio(t[ok], g[ok], a[ok] * acc_scale)
+            if ratio > _DEG_PATH_RATIO:
+                gyro_scale = float(np.pi / 180.0)
+                notes.append(f"{source}: gyroscope in deg/s (it turns gravity's direction {ratio:.3g} times as far as "
+                             "the accelerometer sees it turn): converted to rad/s")
+    return Units(acc_scale, gyro_scale, tuple(notes))
