@@ -94,3 +94,16 @@ def test_analyze_gives_the_same_walk_from_a_file_in_g_and_deg_s(tmp_path: Path, 
     assert out["si"][1] == out["g_deg"][1] == 1
     assert out["g_deg"][0] == pytest.approx(out["si"][0], rel=1e-3)
     assert "in g" in out["g_deg"][2] and "deg/s" in out["g_deg"][2] and "converted" not in out["si"][2]
+
+
+def test_a_still_sensor_is_not_converted_whatever_its_bias() -> None:
+    """A sensor lying still: gravity's direction moves only by the noise, so the gyroscope's bias (0.6 deg/s,
+    ordinary for MEMS) alone would make the path ratio 10 and call rad/s deg/s. Too still to tell: nothing is
+    converted (the accelerometer's units still are: its magnitude needs no motion)."""
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 60.0, 0.01)
+    acc = np.tile([0.1, -9.8, 0.2], (t.size, 1)) + rng.normal(0.0, 0.02, (t.size, 3))
+    gyr = np.array([0.01, -0.005, 0.008]) + rng.normal(0.0, 0.005, (t.size, 3))
+    assert infer_units(t, gyr, acc).notes == ()
+    u = infer_units(t, gyr, acc / GRAVITY_MS2)
+    assert u.acc_scale == GRAVITY_MS2 and u.gyro_scale == 1.0

@@ -16,7 +16,10 @@ and reported nothing (no step, no bout) or nonsense, with exit code 0. The data 
   translations whose linear accelerations swamp gravity's direction, and 132 simulated walks 0.22-1.49) and 57.3
   times that in deg/s (12.6 and more): above 4.3, the geometric middle of the gap, it is deg/s. Magnitudes only,
   so it holds where the two directions hardly correlate (a straight walk's small tilts: the least-squares scale
-  of one against the other was tried first and missed two of the simulated walks in deg/s).
+  of one against the other was tried first and missed two of the simulated walks in deg/s). A recording whose
+  gravity direction hardly moves (95 % of it within 1.5 deg of the median: a sensor lying still; every walk and
+  hand-held trial at hand tilts 2.5 deg or more) cannot tell: there a gyroscope bias of 0.6 deg/s read as rad/s
+  already gives a ratio of 10, so nothing is converted (the documented rad/s).
 * **time**: an IMU sampled more slowly than 10 Hz cannot time steps; a median interval above 0.1 s is refused
   with a hint (milliseconds or nanoseconds are the usual cause) rather than guessed.
 """
@@ -35,6 +38,9 @@ __all__ = ["Units", "infer_units"]
 
 #: Gyroscope path over accelerometer path above this: deg/s (rad/s recordings 0.22-1.49, deg/s 12.6 and more).
 _DEG_PATH_RATIO = 4.3
+#: Below this 95th percentile tilt away from the median gravity direction (degrees) the recording is too still to
+#: tell (a still sensor's noise: 0.1; every walk and hand-held trial at hand: 2.5 and more).
+_MIN_TILT_DEG = 1.5
 _MAX_INTERVAL_S = 0.1
 
 
@@ -63,6 +69,10 @@ def _path_ratio(t: np.ndarray, gyro: np.ndarray, acc: np.ndarray) -> float:
     if not np.all(norm > 0):
         return float("nan")
     u = a / norm
+    centre = np.median(u, axis=0)
+    centre /= float(np.linalg.norm(centre)) or 1.0
+    if np.degrees(np.arccos(np.clip(np.percentile(u @ centre, 5), -1.0, 1.0))) < _MIN_TILT_DEG:
+        return float("nan")  # gravity's direction hardly moves: the gyroscope's bias would decide, not its units
     shown = float(np.sum(np.linalg.norm(np.gradient(u, t, axis=0), axis=1)))
     given = float(np.sum(np.linalg.norm(np.cross(sosfiltfilt(sos, gyro, axis=0), u), axis=1)))
     return given / shown if shown > 0 else float("nan")
