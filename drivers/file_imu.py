@@ -1,9 +1,11 @@
-"""An IMU recording as a live IMU: ``file:imu.csv?realtime=0`` (columns t,gx,gy,gz,ax,ay,az; rad/s, m/s²).
+"""An IMU recording as a live IMU: ``file:imu.csv?realtime=0`` (columns t,gx,gy,gz,ax,ay,az; rad/s, m/s², or g
+and deg/s, recognised from the data).
 
 :func:`walkmon.tables.read_imu_file` is the one reader of imu.csv files (``walkmon live --imu file:...`` and ``walkmon analyze
---imu``): a CSV line has no checksum, so every row goes through the plausibility check of
-:mod:`walkmon.drivers.imu_checks`; malformed and implausible rows are skipped and counted (one warning line
-with the counts), and a file with too few plausible rows is refused.
+--imu``): its units are checked from the data first (:mod:`walkmon.imu.units`: g and deg/s converted, with a
+warning line each; time stamps that cannot be seconds refused); a CSV line has no checksum, so every row goes
+through the plausibility check of :mod:`walkmon.drivers.imu_checks`; malformed and implausible rows are skipped
+and counted (one warning line with the counts), and a file with too few plausible rows is refused.
 """
 
 from __future__ import annotations
