@@ -825,11 +825,11 @@ def cadence_from_steps(
     * **Camera angles** (``mend=False``): the video's pitch maxima are not heel strikes; mending them made bout
       cadence worse (unkind video sessions: within 1 % 84 -> 77 % of bouts, scored with a fixed 0.25 s edge
       window). Where the pitch waveform changes phase (a posture change, a turn) a maximum goes missing or
-      doubles, leaving an interval 1.5 or 0.5 steps long that no mending describes. So every stride with an interval off the rhythm about it (more than
-      ``rhythm_ratio`` x or less than 1 / ``rhythm_ratio`` x the median interval of ``rhythm_window_steps``
-      either side, that median kept within ``rhythm_ratio`` x the bout's so that a run of missed steps does not
-      become the rhythm) is left out, pauses included; with fewer than 2 strides left, as for trunk
-      acceleration."""
+      doubles, leaving an interval 1.5 or 0.5 steps long that no mending describes. So every stride with an
+      interval off the rhythm about it (more than ``rhythm_ratio`` x or less than 1 / ``rhythm_ratio`` x the
+      median interval of ``rhythm_window_steps`` either side, that median kept within ``rhythm_ratio`` x the
+      bout's so that a run of missed steps does not become the rhythm) is left out, pauses included; with fewer
+      than 2 strides left, as for trunk acceleration."""
     st = np.asarray(steps_s, dtype=float)
     st = st[np.isfinite(st)]
     if st.size < 2:
