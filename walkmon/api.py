@@ -417,9 +417,11 @@ def _read_imu(imu_path: str | Path) -> tuple[Any, dict[str, Any]]:
             raise InvalidInputError(msg)
         found = read_telemetry_imu(path)
         return found.recording, {"telemetry": found.to_dict()}
-    from walkmon.tables import read_imu_csv  # noqa: PLC0415
+    from walkmon.imu.recordings import ImuRecording  # noqa: PLC0415
+    from walkmon.tables import read_imu_file  # noqa: PLC0415
 
-    return read_imu_csv(imu_path), {}
+    f = read_imu_file(imu_path, min_rows=10)  # as read_imu_csv, keeping what it found of the file's units
+    return ImuRecording(f.t_s, f.gyroscope_rad_s, f.accelerometer_m_s2), ({"units": list(f.units)} if f.units else {})
 
 
 def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) -> FusionSettings:
@@ -441,7 +443,8 @@ def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, 
     from walkmon.gait.session import ImuInput  # noqa: PLC0415
     from walkmon.tables import read_acc_csv  # noqa: PLC0415
 
-    t_raw, acc = read_acc_csv(imu_path)
+    units: list[str] = []
+    t_raw, acc = read_acc_csv(imu_path, units_out=units)
     t_raw = t_raw + float(offset_s)
     rate = (len(t_raw) - 1) / float(t_raw[-1] - t_raw[0])
     step = max(1, int(np.ceil(rate / 100.0 - 1e-9)))
@@ -454,6 +457,8 @@ def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, 
     info = {"mode": "accelerometer_only", "imu": str(imu_path), "samples": len(t_raw), "rate_hz": round(rate, 3),
             "rows": len(t), "axes": "accelerometer's own axes (no camera extrinsics)",
             "note": "no gyroscope: pitch/roll from gravity (low-passed accelerometer), no yaw, no turns"}
+    if units:
+        info["units"] = units
     return cols, info
 
 
@@ -471,7 +476,7 @@ def _imu_only_columns(
     info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter,
             "accelerometer_calibration": None if calib is None else str(calib), "samples": len(imu.t_s),
             "rate_hz": round(imu.rate_hz, 3), "rows": len(cols["t"]),
-            "axes": "camera axes (telemetry mapping)" if source else "IMU's own axes (no camera extrinsics)",
+            "axes": "camera axes (telemetry mapping)" if "telemetry" in source else "IMU's own axes (no camera extrinsics)",
             **source}
     return dict(cols), info
 
@@ -535,7 +540,7 @@ def _fused_columns(
         settings = dataclasses.replace(settings, camera_from_imu=tuple(ext.camera_from_imu.ravel()),
                                        time_offset_s=ext.time_offset_s)
         _log.info("using the estimated extrinsics (residual %.2f deg/s)", ext.residual_deg_s)
-    elif source and offset_s is None:
+    elif "telemetry" in source and offset_s is None:
         # a camera's embedded IMU: axes known (mapped), clock not frame-exact: the offset estimated from the gyro
         # vs visual rate magnitudes (independent of the axes) when they agree, else none
         if ext is not None and ext.correlation >= 0.5:

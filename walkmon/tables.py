@@ -191,9 +191,10 @@ def imu_file_kind(path: str | Path) -> str:
     return "imu" if all(c in cols for c in ("gx", "gy", "gz")) else "acc"
 
 
-def read_acc_csv(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def read_acc_csv(path: str | Path, *, units_out: list[str] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(t (N,) s, acc (N,3) m/s²) of an accelerometer-only file; non-finite values or time stamps that do not
-    increase are one clear error (InvalidInputError); rows the imu.csv reader's plausibility rules reject (out of
+    increase are one clear error (InvalidInputError); an accelerometer in g is converted (:mod:`walkmon.imu.units`;
+    the line saying so is appended to ``units_out``); rows the imu.csv reader's plausibility rules reject (out of
     range, no gravity) are skipped and counted, and fewer than 10 plausible rows are an error."""
     cols = read_table(path, ACC_COLUMNS)
     t = np.asarray(cols["t"], dtype=float)
@@ -207,7 +208,9 @@ def read_acc_csv(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.floa
     if np.any(np.diff(t) <= 0):
         msg = f"{path}: accelerometer timestamps must strictly increase"
         raise InvalidInputError(msg)
-    _, acc = _in_si_units(path, t, None, acc)
+    _, acc, units = _in_si_units(path, t, None, acc)
+    if units_out is not None:
+        units_out.extend(units)
     from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
 
     keep, why = plausible_rows(t, None, acc)  # the imu.csv reader's rules: out of range, no gravity (a dead sensor)
@@ -287,6 +290,8 @@ class ImuFile:
     gyroscope_rad_s: NDArray[np.float64]
     accelerometer_m_s2: NDArray[np.float64]
     rejected: dict[str, int]
+    #: the file's units where they were not the documented ones, one line each (:mod:`walkmon.imu.units`)
+    units: tuple[str, ...] = ()
 
     @property
     def n_rejected(self) -> int:
@@ -294,17 +299,17 @@ class ImuFile:
 
 
 def _in_si_units(path: str | Path, t: NDArray[np.float64], gyro: NDArray[np.float64] | None,
-                 acc: NDArray[np.float64]) -> tuple[Any, NDArray[np.float64]]:
+                 acc: NDArray[np.float64]) -> tuple[Any, NDArray[np.float64], tuple[str, ...]]:
     """The columns in rad/s and m/s² whatever the file used (g, deg/s: :mod:`walkmon.imu.units`, each conversion
-    logged); InvalidInputError for time stamps that cannot be seconds."""
+    logged and returned); InvalidInputError for time stamps that cannot be seconds."""
     from walkmon.imu.units import infer_units  # noqa: PLC0415  (pure)
 
     if len(t) < 2:
-        return gyro, acc
+        return gyro, acc, ()
     units = infer_units(t, gyro, acc, source=str(path))
     for note in units.notes:
         _log.warning("%s", note)
-    return (None if gyro is None else gyro * units.gyro_scale), acc * units.acc_scale
+    return (None if gyro is None else gyro * units.gyro_scale), acc * units.acc_scale, units.notes
 
 
 def read_imu_file(path: str | Path, *, min_rows: int = 1) -> ImuFile:
@@ -316,7 +321,7 @@ def read_imu_file(path: str | Path, *, min_rows: int = 1) -> ImuFile:
     gyro = np.column_stack([cols["gx"], cols["gy"], cols["gz"]]) if len(t) else np.zeros((0, 3))
     accel = np.column_stack([cols["ax"], cols["ay"], cols["az"]]) if len(t) else np.zeros((0, 3))
     n_total = len(t) + sum(rejected.values())  # rows read + rows read_table skipped as malformed
-    gyro, accel = _in_si_units(path, t, gyro, accel)
+    gyro, accel, units = _in_si_units(path, t, gyro, accel)
     from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
 
     keep, why = plausible_rows(t, gyro, accel)
@@ -329,7 +334,7 @@ def read_imu_file(path: str | Path, *, min_rows: int = 1) -> ImuFile:
         msg = (f"{path}: {int(keep.sum())} plausible IMU rows of {n_total}{detail}; need at least {min_rows} "
                "(a dead sensor reads all zeros; columns are t,gx,gy,gz,ax,ay,az in s, rad/s, m/s2)")
         raise InvalidInputError(msg)
-    return ImuFile(t[keep], gyro[keep], accel[keep], dict(rejected))
+    return ImuFile(t[keep], gyro[keep], accel[keep], dict(rejected), units)
 
 
 def read_table_skipping(path: str | Path, rejected: Counter[str]) -> dict[str, NDArray[np.float64]]:

@@ -90,10 +90,13 @@ def test_analyze_gives_the_same_walk_from_a_file_in_g_and_deg_s(tmp_path: Path, 
             continue
         assert rc == 0, err
         doc = json.loads((tmp_path / name / "indicators.json").read_text(encoding="utf-8"))
-        out[name] = (doc["cadence_spm"], len(doc["bouts"]), caplog.text)
+        imu_json = json.loads((tmp_path / name / "imu.json").read_text(encoding="utf-8"))
+        out[name] = (doc["cadence_spm"], len(doc["bouts"]), caplog.text, imu_json.get("units", []))
     assert out["si"][1] == out["g_deg"][1] == 1
     assert out["g_deg"][0] == pytest.approx(out["si"][0], rel=1e-3)
     assert "in g" in out["g_deg"][2] and "deg/s" in out["g_deg"][2] and "converted" not in out["si"][2]
+    # and the output says it: imu.json names the conversions (none for the SI file)
+    assert len(out["g_deg"][3]) == 2 and "deg/s" in out["g_deg"][3][1] and out["si"][3] == []
 
 
 def test_a_still_sensor_is_not_converted_whatever_its_bias() -> None:
@@ -141,3 +144,22 @@ def test_gravity_free_linear_acceleration_is_not_taken_for_g() -> None:
     linear = acc - sosfiltfilt(butter(2, 0.3, fs=100.0, output="sos"), acc, axis=0)
     assert infer_units(t, None, linear).acc_scale == 1.0
     assert infer_units(t, None, acc_g).acc_scale == GRAVITY_MS2
+
+
+@pytest.mark.skipif(not MOBGAP.is_dir(), reason="shared real data not present")
+def test_accelerometer_only_file_in_g_reads_as_in_m_s2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``walkmon analyze --imu`` on ``t,ax,ay,az`` in g (a phone logger's usual unit): the same bout and
+    cadence as in m/s², and imu.json says the accelerometer was converted."""
+    import json
+
+    t, _, acc_g = _mobgap("MS/001", "Test5")
+    out = {}
+    for name, a in (("si", acc_g * GRAVITY_MS2), ("g", acc_g)):
+        path = tmp_path / f"{name}.csv"
+        np.savetxt(path, np.column_stack([t, a]), delimiter=",", header="t,ax,ay,az", comments="", fmt="%.6f")
+        assert main(["analyze", "--imu", str(path), "--out", str(tmp_path / name)]) == 0, capsys.readouterr().err
+        doc = json.loads((tmp_path / name / "indicators.json").read_text(encoding="utf-8"))
+        info = json.loads((tmp_path / name / "imu.json").read_text(encoding="utf-8"))
+        out[name] = (doc["cadence_spm"], len(doc["bouts"]), info.get("units", []))
+    assert out["g"][1] == out["si"][1] == 1 and out["g"][0] == pytest.approx(out["si"][0], rel=1e-3)
+    assert out["si"][2] == [] and len(out["g"][2]) == 1 and "in g" in out["g"][2][0]
