@@ -417,11 +417,11 @@ def _read_imu(imu_path: str | Path) -> tuple[Any, dict[str, Any]]:
             raise InvalidInputError(msg)
         found = read_telemetry_imu(path)
         return found.recording, {"telemetry": found.to_dict()}
-    from walkmon.imu.recordings import ImuRecording  # noqa: PLC0415
-    from walkmon.tables import read_imu_file  # noqa: PLC0415
+    from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
-    f = read_imu_file(imu_path, min_rows=10)  # as read_imu_csv, keeping what it found of the file's units
-    return ImuRecording(f.t_s, f.gyroscope_rad_s, f.accelerometer_m_s2), ({"units": list(f.units)} if f.units else {})
+    units: list[str] = []
+    rec = read_imu_csv(imu_path, units_out=units)
+    return rec, ({"units": units} if units else {})
 
 
 def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) -> FusionSettings:

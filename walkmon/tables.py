@@ -169,15 +169,18 @@ def write_table(
         writer.writerows(zip(*formatted, strict=True))
 
 
-def read_imu_csv(path: str | Path) -> ImuRecording:
+def read_imu_csv(path: str | Path, *, units_out: list[str] | None = None) -> ImuRecording:
     """Read imu.csv (``t,gx,gy,gz,ax,ay,az``); malformed files raise InvalidInputError with one line.
 
     Rows that cannot be real (malformed, non-finite, beyond a MEMS sensor's range, no gravity, time going back)
     are skipped and counted by :func:`read_imu_file` (CSV lines carry no checksum); a
-    file with fewer than 10 plausible rows is refused."""
+    file with fewer than 10 plausible rows is refused. A file in g or deg/s is converted (:mod:`walkmon.imu.units`;
+    the lines saying so are appended to ``units_out``)."""
     from walkmon.imu.recordings import ImuRecording  # noqa: PLC0415  (the IMU package does no I/O)
 
     f = read_imu_file(path, min_rows=10)
+    if units_out is not None:
+        units_out.extend(f.units)
     return ImuRecording(f.t_s, f.gyroscope_rad_s, f.accelerometer_m_s2)
 
 
@@ -211,17 +214,8 @@ def read_acc_csv(path: str | Path, *, units_out: list[str] | None = None) -> tup
     _, acc, units = _in_si_units(path, t, None, acc)
     if units_out is not None:
         units_out.extend(units)
-    from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
-
-    keep, why = plausible_rows(t, None, acc)  # the imu.csv reader's rules: out of range, no gravity (a dead sensor)
-    if why:
-        _log.warning("%s: %d of %d accelerometer rows skipped as implausible (%s)", path, sum(why.values()), len(t),
-                     ", ".join(f"{k} {v}" for k, v in sorted(why.items())))
-    if int(keep.sum()) < 10:
-        msg = (f"{path}: {int(keep.sum())} plausible accelerometer rows of {len(t)} "
-               f"({', '.join(f'{k} {v}' for k, v in sorted(why.items()))}); need at least 10 (a dead sensor reads "
-               "all zeros; columns are t,ax,ay,az in s, m/s2)")
-        raise InvalidInputError(msg)
+    # the imu.csv reader's rules: out of range, no gravity (a dead sensor)
+    keep = _keep_plausible(path, t, None, acc, Counter(), len(t), 10, "accelerometer", "t,ax,ay,az in s, m/s2")
     return t[keep], acc[keep]
 
 
@@ -322,19 +316,32 @@ def read_imu_file(path: str | Path, *, min_rows: int = 1) -> ImuFile:
     accel = np.column_stack([cols["ax"], cols["ay"], cols["az"]]) if len(t) else np.zeros((0, 3))
     n_total = len(t) + sum(rejected.values())  # rows read + rows read_table skipped as malformed
     gyro, accel, units = _in_si_units(path, t, gyro, accel)
+    keep = _keep_plausible(path, t, gyro, accel, rejected, n_total, min_rows, "IMU",
+                           "t,gx,gy,gz,ax,ay,az in s, rad/s, m/s2")
+    return ImuFile(t[keep], gyro[keep], accel[keep], dict(rejected), units)
+
+
+def _keep_plausible(
+    path: str | Path, t: NDArray[np.float64], gyro: NDArray[np.float64] | None, acc: NDArray[np.float64],
+    rejected: Counter[str], n_total: int, min_rows: int, what: str, columns: str,
+) -> NDArray[np.bool_]:
+    """The rows :func:`walkmon.drivers.imu_checks.plausible_rows` keeps; the skipped ones counted into
+    ``rejected`` (with any the reader skipped as malformed) and told in one warning line; fewer than ``min_rows``
+    kept is InvalidInputError (one line)."""
     from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
 
-    keep, why = plausible_rows(t, gyro, accel)
+    keep, why = plausible_rows(t, gyro, acc)
     rejected.update(why)
+    counts = ", ".join(f"{k} {v}" for k, v in sorted(rejected.items()))
     if rejected:
-        _log.warning("%s: %d of %d IMU rows skipped as implausible (%s)", path, sum(rejected.values()), n_total,
-                     ", ".join(f"{k} {v}" for k, v in sorted(rejected.items())))
+        _log.warning("%s: %d of %d %s rows skipped as implausible (%s)", path, sum(rejected.values()), n_total, what,
+                     counts)
     if int(keep.sum()) < min_rows:
-        detail = f" ({', '.join(f'{k} {v}' for k, v in sorted(rejected.items()))})" if rejected else ""
-        msg = (f"{path}: {int(keep.sum())} plausible IMU rows of {n_total}{detail}; need at least {min_rows} "
-               "(a dead sensor reads all zeros; columns are t,gx,gy,gz,ax,ay,az in s, rad/s, m/s2)")
+        detail = f" ({counts})" if rejected else ""
+        msg = (f"{path}: {int(keep.sum())} plausible {what} rows of {n_total}{detail}; need at least {min_rows} "
+               f"(a dead sensor reads all zeros; columns are {columns})")
         raise InvalidInputError(msg)
-    return ImuFile(t[keep], gyro[keep], accel[keep], dict(rejected), units)
+    return keep
 
 
 def read_table_skipping(path: str | Path, rejected: Counter[str]) -> dict[str, NDArray[np.float64]]:
