@@ -800,12 +800,15 @@ def _one_or_two_steps(ratio: float, s: ActivitySettings) -> bool:
     return ratio < s.ordinary_step_ratio or s.missed_step_ratio[0] <= ratio <= s.missed_step_ratio[1]
 
 
-def _local_median(x: NDArray[np.float64], half: int) -> NDArray[np.float64]:
-    """The median of each element's neighbourhood of ``half`` elements either side (fewer at the ends)."""
+def _local_median(x: NDArray[np.float64], half: int, within: float) -> NDArray[np.float64]:
+    """The median of each element's neighbourhood of ``half`` elements either side (fewer at the ends), kept
+    within ``within`` x the median of all of ``x`` (a run of odd values must not become the local rhythm)."""
+    whole = float(np.median(x))
     if x.size <= 2 * half + 1:
-        return np.full(x.size, float(np.median(x)))
+        return np.full(x.size, whole)
     pad = np.r_[np.full(half, np.nan), x, np.full(half, np.nan)]
-    return np.nanmedian(np.lib.stride_tricks.sliding_window_view(pad, 2 * half + 1), axis=1)
+    local = np.nanmedian(np.lib.stride_tricks.sliding_window_view(pad, 2 * half + 1), axis=1)
+    return np.clip(local, whole / within, whole * within)
 
 
 def cadence_from_steps(
@@ -839,17 +842,15 @@ def cadence_from_steps(
     if d.size < 2:
         return float(60.0 / d[0])
     if not mend and d.size >= 5:
-        whole = float(np.median(d))
-        local = np.clip(_local_median(d, s.rhythm_window_steps), whole / s.rhythm_ratio, whole * s.rhythm_ratio)
+        local = _local_median(d, s.rhythm_window_steps, s.rhythm_ratio)
         regular = (d <= s.rhythm_ratio * local) & (d >= local / s.rhythm_ratio)
         stride = (d[1:] + d[:-1])[regular[1:] & regular[:-1]]
         if stride.size >= 2:
             return float(np.mean(120.0 / stride))
     stride = d[1:] + d[:-1]
-    whole = float(np.median(stride))
     # local, but within pause_factor of the bout's: two hesitations a step apart make four long strides in a
     # row, which must not become the rhythm (a walker who freezes now and then read 8 % slow)
-    med = np.clip(_local_median(stride, s.pause_window_strides), whole / s.pause_factor, whole * s.pause_factor)
+    med = _local_median(stride, s.pause_window_strides, s.pause_factor)
     stride = stride[(stride <= s.pause_factor * med) & (stride >= med / s.hurried_factor)]
     return float(np.mean(120.0 / stride)) if stride.size else float("nan")
 
