@@ -366,28 +366,45 @@ class LiveIndicatorStage:
         return self._compute(t_s)
 
     def _try_calibrate(self) -> None:
-        s = self.settings
         t = np.fromiter(self._t, float)
-        recent = t >= t[-1] - s.calibration_s
-        if t[-1] - t[recent][0] < 0.9 * s.calibration_s or recent.sum() < 5:
+        recent = self._stance_window(t, float(t[-1]))
+        if recent is None or not self._still(recent):
             return
+        if self._rejected is not None:
+            if t[-1] - self._near_checked_s < 0.1:  # checked 10 times a second, not at every frame
+                return
+            self._near_checked_s = float(t[-1])
+            if not self._near_walking(t, recent):
+                return  # still, but as far from the walking posture as the rejected reference: sitting again
+        self._take_reference(t, recent)
+
+    def _stance_window(self, t: NDArray[np.float64], t_end: float) -> NDArray[np.bool_] | None:
+        """The samples of the ``calibration_s`` ending at ``t_end``; None when the window does not hold that long
+        (90 % of it) or 5 samples."""
+        s = self.settings
+        recent = (t >= t_end - s.calibration_s) & (t <= t_end)
+        if recent.sum() < 5 or t_end - t[recent][0] < 0.9 * s.calibration_s:
+            return None
+        return recent
+
+    def _still(self, recent: NDArray[np.bool_]) -> bool:
+        """Every axis' standard deviation over ``recent`` within ``calibration_max_std_deg``."""
         a = np.asarray(self._a, dtype=float)[recent]
-        if np.all(a.std(axis=0) <= s.calibration_max_std_deg):
-            if self._rejected is not None:
-                if t[-1] - self._near_checked_s < 0.1:  # checked 10 times a second, not at every frame
-                    return
-                self._near_checked_s = float(t[-1])
-                if not self._near_walking(t, recent):
-                    return  # still, but as far from the walking posture as the rejected reference: sitting again
-            self._reference = a.mean(axis=0)
-            self._calibrated = True
-            self._calibrated_at_s = float(t[-1])
-            self._rejected = None
-            self._pending_events.append(CalibrationEvent(
-                float(t[-1]), tuple(float(v) for v in self._reference), self._calibration_pending,  # type: ignore[arg-type]
-                float(t[-1] - t[recent][0]),
-            ))
-            self._calibration_pending = ""
+        return bool(np.all(a.std(axis=0) <= self.settings.calibration_max_std_deg))
+
+    def _take_reference(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> None:
+        """The mean angles over ``recent`` become the upright reference, logged as a calibration event with the
+        pending reason ("start", "request", or "posture" after a rejection)."""
+        tr = t[recent]
+        self._reference = np.asarray(self._a, dtype=float)[recent].mean(axis=0)
+        self._calibrated = True
+        self._calibrated_at_s = float(tr[-1])
+        self._rejected = None
+        self._pending_events.append(CalibrationEvent(
+            float(tr[-1]), tuple(float(v) for v in self._reference), self._calibration_pending,  # type: ignore[arg-type]
+            float(tr[-1] - tr[0]),
+        ))
+        self._calibration_pending = ""
 
     def _near_walking(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> bool:
         """Whether the ``recent`` still samples' heading-free tilt lies within ``still_tilt_deg`` of the walking
@@ -406,25 +423,16 @@ class LiveIndicatorStage:
         """After a rejection: the latest still stance (``calibration_s``, as :meth:`_try_calibrate`) in the window
         that lies near the walking posture becomes the reference at once (the wearer stood up and stood a moment
         before walking off: that stance is usually still in the window). False when there is none."""
-        s = self.settings
         t = np.fromiter(self._t, float)
-        a = np.asarray(self._a, dtype=float)
         if len(t) < 5:
             return False
         step = max(1, int(round(0.1 * len(t) / max(t[-1] - t[0], 1e-9))))
         for j in range(len(t) - 1, 0, -step):
-            recent = (t >= t[j] - s.calibration_s) & (t <= t[j])
-            if t[j] - t[recent][0] < 0.9 * s.calibration_s or recent.sum() < 5:
+            recent = self._stance_window(t, float(t[j]))
+            if recent is None:
                 break
-            if np.all(a[recent].std(axis=0) <= s.calibration_max_std_deg) and self._near_walking(t, recent):
-                self._reference = a[recent].mean(axis=0)
-                self._calibrated = True
-                self._calibrated_at_s = float(t[j])
-                self._rejected = None
-                reason = "request" if self._calibration_pending == "request" else "posture"
-                self._calibration_pending = ""
-                self._pending_events.append(CalibrationEvent(float(t[j]), tuple(float(v) for v in self._reference),  # type: ignore[arg-type]
-                                                             reason, float(t[j] - t[recent][0])))
+            if self._still(recent) and self._near_walking(t, recent):
+                self._take_reference(t, recent)  # logged as "posture", or "request" if the wearer asked
                 return True
         return False
 
