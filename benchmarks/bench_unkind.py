@@ -367,6 +367,7 @@ def main() -> int:
                 rows.append(r)
                 print(_row_line(r), flush=True)
     summary = summarise(rows)
+    live = _live_lines(rows)
     head = ("| walk | seed | source | s | activity right % | change point err s | false cps | labels right | "
             "max cadence err % (bouts) | true bouts found | est bouts |")
     table = [head, "|" + "|".join(["---"] * 11) + "|"] + [_row_line(r) for r in rows]
@@ -398,7 +399,7 @@ def main() -> int:
         "",
         *_summary_lines(summary),
         "",
-        *(_live_lines(rows) + [""] if _live_lines(rows) else []),
+        *(live + [""] if live else []),
         *table,
         "",
         env,
@@ -411,7 +412,7 @@ def main() -> int:
         json.dumps({"summary": summary, "rows": rows, "targets": TARGETS, "environment": env}, indent=1,
                    default=lambda v: None) + "\n", encoding="utf-8")
     print()
-    print("\n".join(_summary_lines(summary) + _live_lines(rows)))
+    print("\n".join(_summary_lines(summary) + live))
     print(env)
     return 0
 
