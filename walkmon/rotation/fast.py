@@ -545,7 +545,7 @@ class FastEngine:
             why = "few_inliers" if n_inliers < self.s.min_inliers else "implausible_step"
             return self._hold(t_s, EstimateStatus.LOW_QUALITY, why, n)
         dt = t_s - self._t_prev if self._t_prev is not None else 0.0
-        turn = self._turn_state(step_deg, dt)
+        turn = self._turn_state(step_deg, dt, trusted=fit.status is EstimateStatus.OK)
         if turn == "fast" and fit.status is EstimateStatus.OK:
             # tracking, motion blur and rolling shutter all degrade in a fast turn: the fit stands, flagged
             fit = dataclasses.replace(fit, status=EstimateStatus.LOW_QUALITY, reason="fast_rotation")
@@ -618,10 +618,16 @@ class FastEngine:
         The next frame is fitted against this one, so its change spans one frame and its rate (which decides
         fast_rotation, and the rolling-shutter correction's) is measured from this frame's time. From the last
         accepted frame's time it read half the rate: a 93 deg/s turn passed as ok just after a held frame, 0.9
-        deg off in that frame (turns seed 4)."""
+        deg off in that frame (turns seed 4).
+
+        The frames after it are judged as a fast turn's tail (:meth:`_turn_state`): the turning rate is unknown
+        until an ok fit has measured it, and a rolling-shutter frame right after a hold is corrected with the rate
+        from before it (rolling_shutter seed 3: a frame at 71 deg/s after a held one was reported ok 0.64 deg off
+        in one frame). At walking rates (below half ``max_ok_rate_deg_s``) that changes nothing."""
         self._restart(small)
         if self._t_prev is not None:
             self._t_prev = t_s
+        self._in_turn = True
 
     def _track(self, small: NDArray[np.uint8]) -> int:
         """KLT-track the previous frame's points into ``small``, keep those tracked inside the image; their count."""
@@ -668,14 +674,18 @@ class FastEngine:
         guess[:, 0, 1] = (px[:, 1] + 0.5) / self._sy - 0.5
         return guess
 
-    def _turn_state(self, step_deg: float, dt: float) -> str:
+    def _turn_state(self, step_deg: float, dt: float, *, trusted: bool = True) -> str:
         """``"fast"`` above ``max_ok_rate_deg_s``; ``"tail"`` after a fast frame until the rate falls below
-        _TURN_EXIT_FRACTION of it (a Schmitt trigger); else ``""``.
+        _TURN_EXIT_FRACTION of it (a Schmitt trigger), as measured by a fit that is not itself in doubt
+        (``trusted``); else ``""``.
 
         A turn's last frames, at 50-100 deg/s, were read 20-25 deg/s off (0.6-0.9 deg in one frame) and, just under
         the threshold, reported ok (turns seeds 2 and 4, rolling_shutter seeds 2-5): the rate that decides the
         flag is itself measured by the fit in doubt, so a frame near the threshold cannot be trusted to be below
-        it. The flag is raised at the threshold and lowered only once the rate has halved."""
+        it. The flag is raised at the threshold and lowered only once the rate has halved, and only by a frame
+        whose own fit is ok: a planar_ambiguity frame at a turn's end read 42 deg/s where the camera turned at 81,
+        ended the tail, and the next two frames, at 73 and 61 deg/s, were reported ok 0.8 deg off in one frame
+        (rolling_shutter seed 1)."""
         if dt <= 0:
             return ""
         rate = step_deg / dt
@@ -683,7 +693,8 @@ class FastEngine:
         if rate > limit:
             self._in_turn = True
             return "fast"
-        self._in_turn = self._in_turn and rate > _TURN_EXIT_FRACTION * limit
+        if trusted:
+            self._in_turn = self._in_turn and rate > _TURN_EXIT_FRACTION * limit
         return "tail" if self._in_turn else ""
 
     def _shutter_rate(self) -> NDArray[np.float64] | None:
