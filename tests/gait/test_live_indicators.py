@@ -266,3 +266,28 @@ def test_a_calibration_request_while_the_reference_is_rejected_keeps_its_name() 
             asked = True
     assert asked and [e.reason for e in events] == ["start", "request"]
     assert stage.calibrated
+
+
+@pytest.mark.parametrize("seed", [2, 4, 8])
+def test_straightening_up_is_not_labelled_bent_while_the_window_still_holds_the_bend(seed: int) -> None:
+    """A wearer walks bent, then straightens up and walks on (simulator truth). The live window (8 s) mixes both
+    postures until the new one can be split off (4 s of it), and its mean read ``bend`` for 2-3 hops after the
+    trunk was upright: an alarm for a walk that is normal. Those hops are now unclassified with the reason; the
+    bent walk before is still labelled bend, and the normal walk normal once it fills the split."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("stand:3,bend:12,normal:12", seed=seed)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(2).normal(0, 0.02, (t.size, 3))
+    out = [r for r in run_stage(t, a) if r.walking]
+    bend = next(p for p in model.pieces if p.label == "bend")
+    normal = next(p for p in model.pieces if p.label == "normal")
+    # the truth: upright from the end of the posture ramp (< 1.5 s) on
+    upright_from = normal.start_s + 1.5
+    assert abs(model.truth_angles_deg(np.array([upright_from + 0.5]))[0, 0]
+               - model.truth_angles_deg(np.array([3.0]))[0, 0]) < 3.0
+    late = [(r.t_s, r.label) for r in out if r.t_s >= upright_from + 1.5 and r.label != "normal"]
+    assert not [x for x in late if x[1] in ("bend", "left_shoulder_down", "right_foot_drag")], late
+    assert any("read upright again" in r.reasons[0] for r in out if r.label == "unclassified")
+    assert sum(r.label == "bend" for r in out if bend.start_s + 4.0 < r.t_s <= bend.end_s) >= 7
+    assert sum(r.label == "normal" for r in out if r.t_s > normal.start_s + 6.0) >= 5
