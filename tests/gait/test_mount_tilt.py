@@ -11,7 +11,14 @@ import pytest
 from walkmon.consts import angles_deg_from_rotation
 from walkmon.gait.activity import segment, signals_from_angles
 from walkmon.gait.live import LiveIndicatorStage
-from walkmon.gait.session import SessionSettings, analyze_session, heading_free_angles, vertical_from_turns
+from walkmon.gait.session import (
+    SessionSettings,
+    analyze_session,
+    heading_free_angles,
+    turn_axis,
+    turn_axis_doubt_deg,
+    vertical_from_turns,
+)
 from walkmon.simulate.gait import GaitModel
 
 FPS = 30.0
@@ -52,6 +59,31 @@ def test_the_turns_axes_give_gravity_in_the_camera_frame(script: str, seed: int)
     tilt = v.camera_tilt_deg(a[0])
     assert tilt[0] == pytest.approx(model.mount_deg[0] + trunk[0], abs=2.0)
     assert tilt[1] == pytest.approx(model.mount_deg[1] + trunk[2], abs=2.0)
+
+
+@pytest.mark.parametrize(("script", "posture_change"), [
+    ("mount:-15:3,stand:2,normal:8,turn:180,normal:6,turn:90,normal:5,pause:2", False),
+    ("mount:-20:2,stand:1,left_shoulder_down:8,turn:-90,left_shoulder_down:6,turn:180,left_shoulder_down:5,pause:2",
+     False),
+    ("mount:-12:-2,stand:3,normal:8,bend:10,turn:180,normal:12", True),  # straightens up while turning round
+])
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_turns_doubt_says_how_far_its_axis_is_from_gravity(script: str, posture_change: bool, seed: int) -> None:
+    """turn_axis_doubt_deg against the simulator's true gravity: small where the turn gives gravity (one posture
+    either side), and about as large as the axis' error where a posture change across the turn tilts it."""
+    model = GaitModel(script, seed=seed)
+    t, a = _camera_angles(model)
+    turns = [u for u in segment(signals_from_angles(t, a)).turns if abs(u.angle_deg) >= 60]
+    assert turns
+    for u in turns:
+        r = turn_axis(t, a, u.start_s, u.end_s)
+        assert r is not None
+        err = _angle_deg(r[0], _true_down(model))
+        doubt = turn_axis_doubt_deg(t, a, u.start_s, u.end_s, r[0])
+        if posture_change:
+            assert err > 5.0 and 0.7 * err < doubt < 1.5 * err, (err, doubt)
+        else:
+            assert err < 1.0 and doubt < 3.0, (err, doubt)
 
 
 @pytest.mark.parametrize(("script", "tol"), [
