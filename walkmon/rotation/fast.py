@@ -545,7 +545,7 @@ class FastEngine:
             why = "few_inliers" if n_inliers < self.s.min_inliers else "implausible_step"
             return self._hold(t_s, EstimateStatus.LOW_QUALITY, why, n)
         dt = t_s - self._t_prev if self._t_prev is not None else 0.0
-        turn = self._turn_state(step_deg, dt, trusted=fit.status is EstimateStatus.OK)
+        turn = self._turn_state(step_deg, dt, trusted=fit.status is EstimateStatus.OK and not self._ground_step)
         if turn == "fast" and fit.status is EstimateStatus.OK:
             # tracking, motion blur and rolling shutter all degrade in a fast turn: the fit stands, flagged
             fit = dataclasses.replace(fit, status=EstimateStatus.LOW_QUALITY, reason="fast_rotation")
@@ -623,7 +623,8 @@ class FastEngine:
         The frames after it are judged as a fast turn's tail (:meth:`_turn_state`): the turning rate is unknown
         until an ok fit has measured it, and a rolling-shutter frame right after a hold is corrected with the rate
         from before it (rolling_shutter seed 3: a frame at 71 deg/s after a held one was reported ok 0.64 deg off
-        in one frame). At walking rates (below half ``max_ok_rate_deg_s``) that changes nothing."""
+        in one frame). At walking rates (below half ``max_ok_rate_deg_s``) the next ok frame ends it. Frames held by
+        :meth:`_screen` (featureless, repeated) keep their tracks and do not start a tail."""
         self._restart(small)
         if self._t_prev is not None:
             self._t_prev = t_s
@@ -683,11 +684,13 @@ class FastEngine:
         the threshold, reported ok (turns seeds 2 and 4, rolling_shutter seeds 2-5): the rate that decides the
         flag is itself measured by the fit in doubt, so a frame near the threshold cannot be trusted to be below
         it. The flag is raised at the threshold and lowered only once the rate has halved, and only by a frame
-        whose own fit is ok: a planar_ambiguity frame at a turn's end read 42 deg/s where the camera turned at 81,
+        whose own fit is ok (not a ground_step one either: its fit jumped from the chained change by more than
+        _STEP_JUMP_DEG): a planar_ambiguity frame at a turn's end read 42 deg/s where the camera turned at 81,
         ended the tail, and the next two frames, at 73 and 61 deg/s, were reported ok 0.8 deg off in one frame
-        (rolling_shutter seed 1)."""
-        if dt <= 0:
-            return ""
+        (rolling_shutter seed 1). While the tail lasts the vertical lines are not looked at between keyframes
+        (:meth:`_accept`), so the flag can move a later correction, not only what a frame claims."""
+        if dt <= 0:  # no rate (the first frame after a hold before any accepted one): as the state stands
+            return "tail" if self._in_turn else ""
         rate = step_deg / dt
         limit = self.s.max_ok_rate_deg_s
         if rate > limit:
