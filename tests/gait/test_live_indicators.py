@@ -313,3 +313,48 @@ def test_a_posture_change_across_a_turn_gives_no_alarm_after_it(seed: int) -> No
         [(r.t_s, r.label) for r in late]
     assert any("rests on turns whose axes are in doubt" in " ".join(r.reasons) for r in late)
     assert sum(r.label == "bend" for r in out if bend.start_s + 4.0 < r.t_s <= bend.end_s) >= 5
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_a_still_pause_after_a_turn_re_references_the_video(seed: int) -> None:
+    """A camera tilted 12 deg on the chest; a shoulder-down walk, a U-turn in which the video's pitch drifts by
+    6 deg (added to the simulator's truth), a still pause (upright, simulator truth), and the walk on. The drift
+    puts gravity's direction from the turn in doubt, and the labels after the turn were withheld for the rest of
+    the walk. The pause's still stance, within 8 deg of the reference, becomes the reference (logged with
+    reason "pause"), as the offline analysis' standing anchors: the walk after it is labelled again."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("mount:-12:-2,stand:3,left_shoulder_down:8,turn:180,left_shoulder_down:6,pause:3,"
+                      "left_shoulder_down:12", seed=seed)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(2).normal(0, 0.02, (t.size, 3))
+    turn = next(p for p in model.pieces if p.activity == "turning")
+    a[:, 0] += 6.0 * np.clip((t - turn.start_s) / (turn.end_s - turn.start_s), 0.0, 1.0)
+    pause = [p for p in model.pieces if p.activity == "standing"][-1]
+    assert np.all(np.abs(model.body_angles_deg(np.array([pause.start_s + 1.0]))[0][[0, 2]]) < 1.0)  # upright
+    out = run_stage(t, a)
+    events = [r.calibration for r in out if r.calibration is not None]
+    assert [e.reason for e in events] == ["start", "pause"]
+    assert pause.start_s < events[1].t_s <= pause.end_s + 0.5
+    last = [p for p in model.pieces if p.label][-1]
+    late = [r.label for r in out if r.walking and r.t_s >= last.start_s + 4.0]
+    assert late and all(v == "left_shoulder_down" for v in late), late
+
+
+@pytest.mark.parametrize("seed", [1, 3])
+def test_a_turn_left_out_of_gravitys_direction_leaves_out_its_doubt(seed: int) -> None:
+    """Three U-turns with a tilted camera; in the first the wearer straightens up from a bend (its axis is off
+    gravity by 7-10 deg and disagrees with the others, so gravity's direction leaves it out). Its doubt must not
+    withhold the labels of a shoulder-down walk after the third turn (found in review: the doubt was taken over
+    every turn seen)."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("mount:-12:-2,stand:3,bend:6,turn:180,normal:6,turn:180,normal:6,turn:180,normal:4,"
+                      "left_shoulder_down:10", seed=seed)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(2).normal(0, 0.02, (t.size, 3))
+    out = run_stage(t, a)
+    last = [p for p in model.pieces if p.label][-1]
+    late = [r.label for r in out if r.walking and r.t_s >= last.start_s + 4.0]
+    assert len(late) >= 5 and late.count("left_shoulder_down") >= len(late) - 2, late
+    assert "bend" not in late and "right_foot_drag" not in late
