@@ -143,3 +143,17 @@ def test_slow_hook_is_killed_after_its_timeout() -> None:
 def test_beep_is_a_valid_wav() -> None:
     with wave.open(io.BytesIO(beep_wav_bytes(duration_s=0.1)), "rb") as w:
         assert w.getnchannels() == 1 and w.getframerate() == 16000 and w.getnframes() == 1600
+
+
+@pytest.mark.parametrize(("doubt", "raised"), [(0.0, True), (2.0, True), (4.0, False), (float("nan"), True)])
+def test_posture_alerts_compare_what_the_posture_is_at_least(doubt: float, raised: bool) -> None:
+    """A shoulder 8 deg down for 10 s: raised (5 deg threshold) unless the posture's doubt (a camera-only monitor
+    that does not know gravity's direction well enough at this heading) could bring it within 5 deg; the value
+    reported is that lower bound. A NaN doubt counts as none."""
+    st = AlertStage(AlertSettings(delay_s=5.0, clear_delay_s=2.0, cooldown_s=60.0))
+    series = [dataclasses.replace(ind(float(t), roll=-8.0), posture_doubt_deg=doubt) for t in range(12)]
+    ev = [e for e in feed(st, series) if e.state == "raised"]
+    assert [e.kind for e in ev] == (["shoulder_down"] if raised else [])
+    if raised:
+        assert ev[0].value == pytest.approx(8.0 - (doubt if doubt == doubt else 0.0))
+        assert "left shoulder down" in ev[0].message

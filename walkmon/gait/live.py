@@ -156,6 +156,9 @@ class LiveIndicators:
     calibration: CalibrationEvent | None = None
     extra: dict[str, float] = field(default_factory=dict)
     activity: str = "unknown"
+    #: How far ``posture_deg``'s pitch and roll may be off because gravity's direction is not known well enough
+    #: at this heading (:meth:`LiveIndicatorStage._tilt_doubt_deg`); the alerts take it off before comparing.
+    posture_doubt_deg: float = 0.0
 
     def to_dict(self) -> dict[str, object]:
         def num(v: float) -> float | None:
@@ -177,6 +180,7 @@ class LiveIndicators:
                 }
                 for i, ax in enumerate(AXES)
             },
+            "posture_doubt_deg": num(self.posture_doubt_deg),
             "step_asymmetry": num(self.step_asymmetry),
             "classification": {"label": self.label, "reasons": list(self.reasons)},
             "calibrated": self.calibrated,
@@ -432,7 +436,7 @@ class LiveIndicatorStage:
         classifier's normal range (``normal_max_inclination_deg``, 3 deg) of the reference becomes the reference,
         logged with reason ``"pause"``: the offline analysis' standing anchors, run incrementally. A video's
         orientation drifts most in turns (1-6 deg of pitch or roll across a 90-180 deg turn) and gravity's direction
-        from the turns is in doubt (:meth:`_vertical_doubt_deg`); a still stance that near the reference is taken
+        from the turns is in doubt (:meth:`_tilt_doubt_deg`); a still stance that near the reference is taken
         for the same upright stance, so the difference is the video's error. Not with an IMU's gravity (nothing
         drifts), not while the reference is rejected, and checked 10 times a second.
 
@@ -594,8 +598,18 @@ class LiveIndicatorStage:
                     hi_d, lo_d = cycle_extremes(_detrend(smooth[:, k]), fs, cycle_hz)
                     sw.append(float(np.mean(hi_d - lo_d)) if hi_d.size else math.nan)
                     inc.append(float(np.mean((hi + lo) / 2.0)) if hi.size else math.nan)
-                if self._steady_walk(grid, u, fs, f_step):
-                    asym = step_asymmetry_from_pitch(u[:, 0], fs, f_step)
+                # and no turn in the window: a turn's yaw leaks into the start-relative pitch at the stride
+                # frequency (a 45 deg turn read 0.7-1.5, and raised asymmetric_gait on a symmetric walk)
+                # (its pitch in the level frame when gravity's direction is known; else only while the heading
+                # is near the reference's: a camera tilted on the chest that has turned by 30-45 deg reads part
+                # of the trunk's stride-frequency roll and yaw in its start-relative pitch, which read 0.5-1.5 on
+                # a symmetric walk and raised asymmetric_gait)
+                straight = span is not None and span[0] <= grid[0] + 1.0
+                if straight and self._steady_walk(grid, u, fs, f_step):
+                    pitch = self._heading_free_pitch(t)
+                    if pitch is not None:
+                        _, lv = resample_uniform(t, pitch[:, None], fs)
+                        asym = step_asymmetry_from_pitch(lv[:, 0], fs, f_step)
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
         walking = activity == "walking"
         label, reasons = "not_walking", (f"activity {activity}: no walking bout reaching the present",)
@@ -621,6 +635,7 @@ class LiveIndicatorStage:
         # no pitch and roll: a wearer who started the monitor seated must not be told to straighten up)
         recent = t >= t_now - s.posture_window_s
         posture = tuple(float(v) for v in self._posture(t, recent)) if recent.any() else nan3
+        posture_doubt = self._posture_doubt_deg(t, recent) if recent.any() else 0.0
         if self._rejected is not None:
             posture = (math.nan, posture[1], math.nan)
         event = self._pending_events.popleft() if self._pending_events else None
@@ -640,6 +655,7 @@ class LiveIndicatorStage:
             calibrated=self._calibrated,
             calibration=event,
             activity=activity,
+            posture_doubt_deg=float(posture_doubt),
         )
 
     def _posture(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> NDArray[np.float64]:
@@ -658,6 +674,31 @@ class LiveIndicatorStage:
         out = a[recent].mean(axis=0)
         out[1] = (out[1] + 180.0) % 360.0 - 180.0  # the heading, shown within +-180
         return out
+
+    def _heading_free_pitch(self, t: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """The window's pitch in the level frame (gravity's direction known), the start-relative pitch while the
+        heading stays near the reference's (the tilt doubt over the window within the classifier's normal range),
+        else None."""
+        from walkmon.gait.posture import DEFAULT_POSTURE_THRESHOLDS  # noqa: PLC0415
+        from walkmon.gait.session import level_basis, level_frame_angles  # noqa: PLC0415
+
+        a = np.asarray(self._a, dtype=float)
+        if self._vertical is not None:
+            return level_frame_angles(a, level_basis(self._vertical))[:, 0]
+        if self._tilt_doubt_deg(a, self._reference, np.ones(len(t), bool))[0] >= \
+                DEFAULT_POSTURE_THRESHOLDS.normal_max_inclination_deg:
+            return None
+        return a[:, 0] - self._reference[0]
+
+    def _posture_doubt_deg(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> float:
+        """:meth:`_tilt_doubt_deg` of the ``recent`` samples (the posture the alerts react to)."""
+        from walkmon.gait.session import level_basis, level_frame_angles  # noqa: PLC0415
+
+        a, ref = np.asarray(self._a, dtype=float), self._reference
+        if self._vertical is not None:
+            basis = level_basis(self._vertical)
+            a, ref = level_frame_angles(a, basis), level_frame_angles(ref[None, :], basis)[0]
+        return self._tilt_doubt_deg(a, ref, recent)[0]
 
     def _learn_gravity(self, a: tuple[float, float, float], abs_deg: tuple[float, float]) -> None:
         """Gravity's direction in the start frame from an IMU: each sample's gravity (from ``abs_deg``) turned into
@@ -710,30 +751,44 @@ class LiveIndicatorStage:
             self._vertical_doubt = max((d for (ax, _), d in zip(self._turn_axes, self._turn_doubts, strict=True)
                                         if id(ax) in kept), default=0.0)
 
-    def _vertical_doubt_deg(
-        self, a_level: NDArray[np.float64], ref_level: NDArray[np.float64], span: tuple[float, float],
-        t: NDArray[np.float64],
-    ) -> float:
-        """How far the tilt of the walk ``span`` may be off because gravity's direction came from turns: 0 with
-        an IMU's gravity or no turn; else ``2 sin(dpsi / 2)`` times the largest doubt of the turns it rests on
-        (:func:`walkmon.gait.session.turn_axis_doubt_deg`; those vertical_from_axes and vertical_with_level kept,
-        not the ones they left out as disagreeing), ``dpsi`` the heading turned since the reference (an
-        error of the vertical shows in the tilt only as the wearer faces away from where the reference was taken).
+    def _tilt_doubt_deg(self, a: NDArray[np.float64], ref: NDArray[np.float64], m: NDArray[np.bool_]) -> tuple[
+        float, str
+    ]:
+        """How far the heading-free tilt of the samples ``m`` may be off because gravity's direction is not known
+        well enough, and why: ``2 sin(dpsi / 2)`` times the direction's possible error, ``dpsi`` the heading turned
+        since the reference (an error of the direction shows in the tilt only as the wearer faces away from where
+        the reference was taken). ``a`` and ``ref``: the angles and the reference, in the level frame when the
+        direction is known. 0 with an IMU's gravity.
 
-        The live replay of the unkind sessions gave 8 pathology hops on true normal walking after turns (seeds 1-5:
-        a 15 deg posture change across a turn, or the video's drift, had tilted the vertical by 4-8 deg): 0 with
-        this; labels right 349 -> 335 of 560. The largest turn's doubt was chosen as the bound the vertical rests
-        on (the mean or median kept 8-12 more right labels on both seed sets, with the same 0 false ones: tuning
-        on them, not done). Held-out seeds 6-10: 3 -> 0 false, right 399 -> 377 of 600. (Taken over every turn
-        seen, including those the vertical leaves out, it was 331 and 373: found in review.)"""
-        if float(np.linalg.norm(self._gravity_sum)) > 0 or self._vertical is None or not self._vertical_doubt > 0:
-            return 0.0
-        m = (t >= span[0]) & (t <= span[1])
-        if not m.any():
-            return 0.0
-        yaw = np.radians(a_level[m, 1] - float(ref_level[1]))
+        * Learnt from turns: the largest doubt of the turns it rests on (:func:`walkmon.gait.session.
+          turn_axis_doubt_deg`; those vertical_from_axes and vertical_with_level kept). The live replay of the
+          unkind sessions gave 8 pathology hops on true normal walking after turns (seeds 1-5: a 15 deg posture
+          change across a turn, or the video's drift, had tilted the direction by 4-8 deg): 0 with this; labels
+          right 349 -> 335 of 560. The largest turn's doubt was chosen as the bound the direction rests on (the
+          mean or median kept 8-12 more right labels on both seed sets, with the same 0 false ones: tuning on
+          them, not done). Held-out seeds 6-10: 3 -> 0 false, right 399 -> 377 of 600. (Taken over every turn
+          seen, including those left out, it was 331 and 373: found in review.)
+        * Not learnt yet (no turn of 60 deg or more; the camera assumed level on the trunk): the camera's tilt on
+          the trunk, up to ``mount_tilt_deg`` (20 deg, the offline analysis' a-priori bound). A camera 12 deg down
+          read 5-10 deg of roll after a 30-45 deg turn (a corner, a curved path), which raised shoulder_down and
+          labelled the normal walk left_shoulder_down (found in review, on simulator truth)."""
+        if float(np.linalg.norm(self._gravity_sum)) > 0 or not m.any():
+            return 0.0, ""
+        yaw = np.radians(a[m, 1] - float(ref[1]))
         dpsi = abs(math.degrees(math.atan2(float(np.mean(np.sin(yaw))), float(np.mean(np.cos(yaw))))))
-        return 2.0 * math.sin(math.radians(dpsi) / 2.0) * self._vertical_doubt
+        factor = 2.0 * math.sin(math.radians(dpsi) / 2.0)
+        if self._vertical is None:
+            from walkmon.gait.session import DEFAULT_SESSION_SETTINGS  # noqa: PLC0415
+
+            bound = DEFAULT_SESSION_SETTINGS.mount_tilt_deg
+            return factor * bound, (
+                f"gravity's direction is not known yet (no turn of 60 deg or more to learn it from; the camera is "
+                f"assumed level on the trunk, which it may not be by up to {bound:g} deg): after turning "
+                f"{dpsi:.0f} deg the tilt may be off by {factor * bound:.1f} deg")
+        return factor * self._vertical_doubt, (
+            f"gravity's direction rests on turns whose axes are in doubt by up to {self._vertical_doubt:.1f} deg "
+            f"(a posture change or the video's drift across a turn), {factor * self._vertical_doubt:.1f} deg of "
+            f"tilt at this heading")
 
     def _activity(self, t: NDArray[np.float64], a: NDArray[np.float64], t_now: float) -> tuple[
         str, tuple[float, float] | None
@@ -788,17 +843,15 @@ class LiveIndicatorStage:
         cuts = change_points(t[m], hf[m])  # a posture change inside the span: classify what follows it
         start = cuts[-1] if cuts else span[0]
         ind, _ = span_indicators(t, hf, start, span[1], np.zeros(3), steps, "angles")
-        doubt = self._vertical_doubt_deg(a, ref, (start, span[1]), t)
+        doubt, why = self._tilt_doubt_deg(a, ref, (t >= start) & (t <= span[1]))
         if ind.classification.label in _POSTURE_LABELS and doubt > 0:
-            # a posture label that the vertical's doubt could change is withheld, as offline
+            # a posture label that the direction's doubt could change is withheld, as offline
             # (walkmon.gait.session.label_within_uncertainty with the same corners)
-            unc = ReferenceUncertainty(np.full((t.size, 2), doubt), np.zeros(t.size, dtype=np.int64), (
-                f"gravity's direction rests on turns whose axes are in doubt by up to {self._vertical_doubt:.1f} deg "
-                f"(a posture change or the video's drift across a turn), {doubt:.1f} deg of tilt at this heading",))
+            unc = ReferenceUncertainty(np.full((t.size, 2), doubt), np.zeros(t.size, dtype=np.int64), (why,))
             ind = ind.with_classification(label_within_uncertainty(
                 ind.classification, ind.to_dict(), [(start, span[1])], t, unc, None))
         if ind.classification.label in _POSTURE_LABELS:
-            why = upright_again(t, hf, start, span[1])
-            if why is not None:
-                ind = ind.with_classification(Classification("unclassified", (why, *ind.classification.reasons)))
+            again = upright_again(t, hf, start, span[1])
+            if again is not None:
+                ind = ind.with_classification(Classification("unclassified", (again, *ind.classification.reasons)))
         return ind

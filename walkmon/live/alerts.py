@@ -6,6 +6,9 @@ empty). Each condition
 
 * ``lean_forward``: posture pitch below ``-lean_forward_deg`` (bent forward);
 * ``shoulder_down``: posture roll beyond ``shoulder_down_deg`` either side (sign tells which shoulder);
+
+  both on what the posture is at least: the measured tilt less ``posture_doubt_deg`` (a camera-only monitor that
+  does not know gravity's direction well enough at the wearer's heading; the value reported is that lower bound);
 * ``unsteady_gait``: roll swing above ``unsteady_roll_swing_deg``;
 * ``asymmetric_gait``: step asymmetry above ``asymmetry_ratio``;
 
@@ -114,11 +117,17 @@ class _State:
 def _measures(s: AlertSettings) -> dict[str, tuple[Callable[[LiveIndicators], float], float, float, str]]:
     """condition -> (value from indicators, raise threshold, clear threshold, message template)."""
 
+    def doubt(ind: LiveIndicators) -> float:
+        d = float(getattr(ind, "posture_doubt_deg", 0.0))
+        return d if math.isfinite(d) and d > 0 else 0.0
+
+    # what the posture is at least: the measured tilt less its doubt (gravity's direction not known well enough
+    # at this heading, LiveIndicators.posture_doubt_deg), so that a doubtful tilt raises nothing
     def lean(ind: LiveIndicators) -> float:
-        return -ind.posture_deg[0]
+        return -ind.posture_deg[0] - doubt(ind)
 
     def shoulder(ind: LiveIndicators) -> float:
-        return abs(ind.posture_deg[2])
+        return abs(ind.posture_deg[2]) - doubt(ind)
 
     return {
         "lean_forward": (lean, s.lean_forward_deg, s.lean_forward_deg - s.lean_forward_hysteresis_deg,
