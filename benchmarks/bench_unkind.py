@@ -174,18 +174,29 @@ LIVE_TRUTH_S = 4.0  # a hop is scored when the last 4 s were >= 75 % walking, >=
 def live_replay(out_dir: Path, truth: Truth) -> dict[str, int]:
     """The video's angles (``angles.csv`` of ``analyze``) replayed through the live stage sample by sample, as
     ``walkmon live`` runs it; each walking hop counted as ``"TRUE>LIVE"`` (true posture of the last
-    ``LIVE_TRUTH_S`` against the hop's label)."""
+    ``LIVE_TRUTH_S`` against the hop's label); and each alert the alert stage raises, as ``"alert:TRUE>KIND"``
+    (the true posture: the commonest label of the walking over the alert's delay before it, else the activity)."""
     from walkmon.gait.live import LiveIndicatorStage  # noqa: PLC0415
+    from walkmon.live.alerts import AlertStage  # noqa: PLC0415
 
     x = read_table(out_dir / "angles.csv", ["t", "pitch", "yaw", "roll"])
     tt = truth.t
     act = np.asarray(truth.activity, dtype=object)
     lab = np.asarray(truth.label, dtype=object)
     stage = LiveIndicatorStage()
+    alerts = AlertStage()
     out: Counter[str] = Counter()
     for t, p, y, r in zip(x["t"], x["pitch"], x["yaw"], x["roll"], strict=True):
         hop = stage.push(float(t), (float(p), float(y), float(r)))
-        if hop is None or not hop.walking:
+        if hop is None:
+            continue
+        for e in alerts.push(hop):
+            if e.state == "raised":
+                w = (tt > t - alerts.settings.delay_s) & (tt <= t)
+                walk = w & (act == "walking")
+                names, counts = np.unique(lab[walk] if walk.any() else act[w], return_counts=True)
+                out[f"alert:{names[int(np.argmax(counts))] if names.size else 'unknown'}>{e.kind}"] += 1
+        if not hop.walking:
             continue
         w = (tt > t - LIVE_TRUTH_S) & (tt <= t)
         m = w & (act == "walking")
@@ -204,7 +215,8 @@ def _live_lines(rows: list[dict]) -> list[str]:
         tot.update(r.get("live") or {})
     if not tot:
         return []
-    pairs = {tuple(k.split(">")): v for k, v in tot.items()}
+    alert_pairs = {tuple(k[len("alert:"):].split(">")): v for k, v in tot.items() if k.startswith("alert:")}
+    pairs = {tuple(k.split(">")): v for k, v in tot.items() if not k.startswith("alert:")}
     n = sum(pairs.values())
     right = sum(v for (a, b), v in pairs.items() if a == b)
     normal = sum(v for (a, _), v in pairs.items() if a == "normal")
@@ -217,6 +229,15 @@ def _live_lines(rows: list[dict]) -> list[str]:
         "| hops scored | label right | unclassified | pathology labels on true normal walking |",
         "|---|---|---|---|",
         f"| {n} | {right} ({100.0 * right / n:.0f} %) | {unc} | {false} of {normal} |",
+        "",
+        "Alerts the live alert stage raised over the same replay, by the true posture of the walking over the alert's "
+        "delay before it:",
+        "",
+        "| true posture | lean_forward | shoulder_down | unsteady_gait | asymmetric_gait |",
+        "|---|---|---|---|---|",
+        *(f"| {p} | " + " | ".join(str(alert_pairs.get((p, k), 0)) for k in
+                                     ("lean_forward", "shoulder_down", "unsteady_gait", "asymmetric_gait")) + " |"
+          for p in sorted({a for a, _ in alert_pairs})),
     ]
 
 
