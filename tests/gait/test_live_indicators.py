@@ -51,6 +51,18 @@ def run_stage(t: np.ndarray, a: np.ndarray, stage: LiveIndicatorStage | None = N
     return out
 
 
+def run_with_alerts(t: np.ndarray, a: np.ndarray, stage: LiveIndicatorStage) -> tuple[list[LiveIndicators], list]:
+    """The hops and the alerts raised (AlertEvent) of the stage fed with (t, a), through the default alert stage."""
+    from walkmon.live.alerts import AlertStage
+
+    alerts = AlertStage()
+    out, raised = [], []
+    for r in run_stage(t, a, stage):
+        out.append(r)
+        raised += [e for e in alerts.push(r) if e.state == "raised"]
+    return out, raised
+
+
 def test_cadence_refined_below_bin_width() -> None:
     rng = np.random.default_rng(1)
     for f in (1.51, 1.77, 1.93, 2.2):
@@ -368,7 +380,6 @@ def test_a_tilted_pause_after_a_turn_is_no_reference(seed: int, roll_deg: float)
     the upright walk read 6 deg the other way: a shoulder_down alert and left_shoulder_down labels on a normal
     walk (found in review). A pause re-references only within the classifier's normal range (3 deg)."""
     from walkmon.consts import angles_deg_from_rotation, rot_x, rot_y, rot_z, rotation_from_angles_deg
-    from walkmon.live.alerts import AlertStage
     from walkmon.simulate.gait import GaitModel
 
     model = GaitModel("mount:-12:-2,stand:3,normal:8,turn:180,normal:5,pause:4,normal:16", seed=seed)
@@ -382,13 +393,7 @@ def test_a_tilted_pause_after_a_turn_is_no_reference(seed: int, roll_deg: float)
     a = angles_deg_from_rotation(rot_y(r[:, 1]) @ rot_x(r[:, 0]) @ rot_z(r[:, 2]) @ mount)
     a += np.random.default_rng(2).normal(0, 0.02, a.shape)
     assert np.allclose(angles_deg_from_rotation(model.rotation(t[:5])), a[:5], atol=0.2)  # composed as the model
-    stage, alerts = LiveIndicatorStage(), AlertStage()
-    out, raised = [], []
-    for ti, ai in zip(t, a, strict=True):
-        ind = stage.push(float(ti), ai)
-        if ind is not None:
-            out.append(ind)
-            raised += [e for e in alerts.push(ind) if e.state == "raised"]
+    out, raised = run_with_alerts(t, a, LiveIndicatorStage())
     assert not [r for r in out if r.calibration is not None and r.calibration.reason == "pause"]
     assert raised == [], raised
     last = [p for p in model.pieces if p.label == "normal"][-1]
@@ -406,21 +411,15 @@ def test_a_tilted_camera_after_a_small_turn_raises_no_alert(turn_deg: int, seed:
     review). The tilt doubt of an unknown direction (the camera's tilt on the trunk, up to 20 deg, times
     2 sin(dpsi/2)) withholds the labels and is taken off the posture before the alerts compare it; the step
     asymmetry is measured only where the pitch does not depend on the heading."""
-    from walkmon.live.alerts import AlertStage
     from walkmon.simulate.gait import GaitModel
 
     model = GaitModel(f"mount:-12:-2,stand:3,normal:8,turn:{turn_deg},normal:14", seed=seed)
     t = np.arange(0, model.duration_s, 1 / FPS)
     a = model.truth_angles_deg(t) + np.random.default_rng(2).normal(0, 0.02, (t.size, 3))
-    stage, alerts = LiveIndicatorStage(), AlertStage()
-    out, raised = [], []
-    for ti, ai in zip(t, a, strict=True):
-        ind = stage.push(float(ti), ai)
-        if ind is not None:
-            out.append(ind)
-            raised += [(round(e.t_s), e.kind) for e in alerts.push(ind) if e.state == "raised"]
+    stage = LiveIndicatorStage()
+    out, raised = run_with_alerts(t, a, stage)
     assert stage.vertical is None  # no turn to learn gravity's direction from
-    assert raised == [], raised
+    assert raised == [], [(e.t_s, e.kind) for e in raised]
     walking = [r for r in out if r.walking]
     assert walking and not any(r.label in ("bend", "left_shoulder_down", "right_foot_drag") for r in walking)
     last = [p for p in model.pieces if p.label == "normal"][-1]
