@@ -598,12 +598,10 @@ class LiveIndicatorStage:
                     hi_d, lo_d = cycle_extremes(_detrend(smooth[:, k]), fs, cycle_hz)
                     sw.append(float(np.mean(hi_d - lo_d)) if hi_d.size else math.nan)
                     inc.append(float(np.mean((hi + lo) / 2.0)) if hi.size else math.nan)
-                # and no turn in the window: a turn's yaw leaks into the start-relative pitch at the stride
-                # frequency (a 45 deg turn read 0.7-1.5, and raised asymmetric_gait on a symmetric walk)
-                # (its pitch in the level frame when gravity's direction is known; else only while the heading
-                # is near the reference's: a camera tilted on the chest that has turned by 30-45 deg reads part
-                # of the trunk's stride-frequency roll and yaw in its start-relative pitch, which read 0.5-1.5 on
-                # a symmetric walk and raised asymmetric_gait)
+                # only over a straight walk filling the window (a turn in it read 0.7-1.5 on a symmetric walk), on
+                # a pitch that does not depend on the heading (_heading_free_pitch: a camera tilted on the chest
+                # that has turned 30-45 deg mixes the trunk's stride-frequency roll and yaw into its start-relative
+                # pitch, which raised asymmetric_gait on a symmetric walk)
                 straight = span is not None and span[0] <= grid[0] + 1.0
                 if straight and self._steady_walk(grid, u, fs, f_step):
                     pitch = self._heading_free_pitch(t)
