@@ -211,8 +211,7 @@ def upright_again(
     6 of the 17 pathology hops on true normal walking, seeds 1-10). A mixed window that still reads normal while
     the wearer bends down is a late label, not a false alarm, so only this direction is withheld."""
     from walkmon.gait.posture import DEFAULT_POSTURE_THRESHOLDS as th  # noqa: PLC0415
-    from walkmon.gait.session import DEFAULT_SESSION_SETTINGS as ss  # noqa: PLC0415
-    from walkmon.gait.session import posture_features  # noqa: PLC0415
+    from walkmon.gait.session import change_limits, posture_features  # noqa: PLC0415
 
     m = (t >= t0) & (t <= t1)
     if t1 - t0 < 2.0 * tail_s or np.count_nonzero(m) < 10:
@@ -224,7 +223,7 @@ def upright_again(
     now, before = np.median(f[tail], axis=0), np.median(f[~tail], axis=0)
     if max(abs(float(now[0])), abs(float(now[1]))) >= th.normal_max_inclination_deg:
         return None
-    d = np.abs(now - before) / np.array([ss.change_pitch_deg, ss.change_roll_deg, math.log(ss.change_swing_ratio)])
+    d = np.abs(now - before) / change_limits()
     if float(np.max(d)) < 1.0:
         return None
     return (f"the last {tail_s:g} s read upright again (pitch {now[0]:.1f}, roll {now[1]:.1f} deg, "
@@ -449,7 +448,6 @@ class LiveIndicatorStage:
         Live replay of the unkind sessions: labels right 335 -> 342 of 560 (seeds 1-5) and 377 -> 387 of 600
         (6-10), pathology hops on true normal walking 0 and 0 as before (with 8 deg: 354 and 383)."""
         from walkmon.gait.posture import DEFAULT_POSTURE_THRESHOLDS  # noqa: PLC0415
-        from walkmon.gait.session import heading_free_angles  # noqa: PLC0415
 
         if not self._calibrated or self._rejected is not None or float(np.linalg.norm(self._gravity_sum)) > 0:
             return
@@ -463,9 +461,8 @@ class LiveIndicatorStage:
         recent = self._stance_window(t, t_now)
         if recent is None or not self._still(recent):
             return
-        hf = heading_free_angles(t[recent], np.asarray(self._a, dtype=float)[recent], self._reference, self._vertical)
-        limit = DEFAULT_POSTURE_THRESHOLDS.normal_max_inclination_deg
-        if max(abs(float(np.mean(hf[:, 0]))), abs(float(np.mean(hf[:, 2])))) < limit:
+        pitch, roll = self._stance_tilt(t, recent)
+        if max(abs(pitch), abs(roll)) < DEFAULT_POSTURE_THRESHOLDS.normal_max_inclination_deg:
             self._calibration_pending = "pause"
             self._take_reference(t, recent)
 
@@ -501,14 +498,18 @@ class LiveIndicatorStage:
         """Whether the ``recent`` still samples' heading-free tilt lies within ``still_tilt_deg`` of the walking
         posture seen against the rejected reference (both relative to that reference, so comparable whatever the
         heading)."""
-        from walkmon.gait.session import heading_free_angles  # noqa: PLC0415
-
         assert self._rejected is not None
         if recent.sum() < 3:
             return False
-        hf = heading_free_angles(t[recent], np.asarray(self._a, dtype=float)[recent], self._reference, self._vertical)
-        still = (float(np.mean(hf[:, 0])), float(np.mean(hf[:, 2])))
+        still = self._stance_tilt(t, recent)
         return max(abs(still[0] - self._rejected[0]), abs(still[1] - self._rejected[1])) <= self.settings.still_tilt_deg
+
+    def _stance_tilt(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> tuple[float, float]:
+        """The ``recent`` samples' mean heading-free (pitch, roll) from the reference."""
+        from walkmon.gait.session import heading_free_angles  # noqa: PLC0415
+
+        hf = heading_free_angles(t[recent], np.asarray(self._a, dtype=float)[recent], self._reference, self._vertical)
+        return float(np.mean(hf[:, 0])), float(np.mean(hf[:, 2]))
 
     def _calibrate_from_window(self) -> bool:
         """After a rejection: the latest still stance (``calibration_s``, as :meth:`_try_calibrate`) in the window
@@ -678,25 +679,28 @@ class LiveIndicatorStage:
         heading stays near the reference's (the tilt doubt over the window within the classifier's normal range),
         else None."""
         from walkmon.gait.posture import DEFAULT_POSTURE_THRESHOLDS  # noqa: PLC0415
-        from walkmon.gait.session import level_basis, level_frame_angles  # noqa: PLC0415
 
-        a = np.asarray(self._a, dtype=float)
+        a, ref = self._level(np.asarray(self._a, dtype=float))
         if self._vertical is not None:
-            return level_frame_angles(a, level_basis(self._vertical))[:, 0]
-        if self._tilt_doubt_deg(a, self._reference, np.ones(len(t), bool))[0] >= \
-                DEFAULT_POSTURE_THRESHOLDS.normal_max_inclination_deg:
+            return a[:, 0]
+        if self._tilt_doubt_deg(a, ref, np.ones(len(t), bool))[0] >= DEFAULT_POSTURE_THRESHOLDS.normal_max_inclination_deg:
             return None
-        return a[:, 0] - self._reference[0]
+        return a[:, 0] - ref[0]
 
     def _posture_doubt_deg(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> float:
         """:meth:`_tilt_doubt_deg` of the ``recent`` samples (the posture the alerts react to)."""
+        a, ref = self._level(np.asarray(self._a, dtype=float))
+        return self._tilt_doubt_deg(a, ref, recent)[0]
+
+    def _level(self, a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Angles ``a`` and the reference in the level frame of gravity's direction once it is known, else as
+        they are (start-relative)."""
         from walkmon.gait.session import level_basis, level_frame_angles  # noqa: PLC0415
 
-        a, ref = np.asarray(self._a, dtype=float), self._reference
-        if self._vertical is not None:
-            basis = level_basis(self._vertical)
-            a, ref = level_frame_angles(a, basis), level_frame_angles(ref[None, :], basis)[0]
-        return self._tilt_doubt_deg(a, ref, recent)[0]
+        if self._vertical is None:
+            return a, self._reference
+        basis = level_basis(self._vertical)
+        return level_frame_angles(a, basis), level_frame_angles(self._reference[None, :], basis)[0]
 
     def _learn_gravity(self, a: tuple[float, float, float], abs_deg: tuple[float, float]) -> None:
         """Gravity's direction in the start frame from an IMU: each sample's gravity (from ``abs_deg``) turned into
@@ -824,18 +828,11 @@ class LiveIndicatorStage:
             change_points,
             heading_free_angles,
             label_within_uncertainty,
-            level_basis,
-            level_frame_angles,
             span_indicators,
         )
 
-        ref, down = self._reference, self._vertical
-        if down is not None:
-            basis = level_basis(down)
-            a = level_frame_angles(a, basis)
-            ref = level_frame_angles(ref[None, :], basis)[0]
-            down = np.array([0.0, 1.0, 0.0])
-        hf = heading_free_angles(t, a, ref, down)
+        a, ref = self._level(a)
+        hf = heading_free_angles(t, a, ref, None if self._vertical is None else np.array([0.0, 1.0, 0.0]))
         steps = self._last_steps  # the window's steps, from the segmentation that found the walking span
         m = (t >= span[0]) & (t <= span[1])
         cuts = change_points(t[m], hf[m])  # a posture change inside the span: classify what follows it

@@ -62,6 +62,7 @@ __all__ = [
     "SessionSettings",
     "analyze_session",
     "camera_level_down",
+    "change_limits",
     "change_points",
     "heading_free_angles",
     "level_basis",
@@ -632,6 +633,12 @@ def posture_features(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSIO
     return np.column_stack([slow, np.log(np.maximum(sway, 0.05))])
 
 
+def change_limits(s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> NDArray[np.float64]:
+    """What a change of posture is, per :func:`posture_features` column: ``change_pitch_deg``, ``change_roll_deg``
+    and the log of ``change_swing_ratio`` (features differing by at least one of them are two postures)."""
+    return np.array([s.change_pitch_deg, s.change_roll_deg, math.log(s.change_swing_ratio)])
+
+
 def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> list[float]:
     """Split times of a piece: binary segmentation of :func:`posture_features` (a split where the two sides'
     medians differ by ``change_pitch_deg`` in pitch, ``change_roll_deg`` in roll or a factor
@@ -640,7 +647,7 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
         return []
     fs = (t.size - 1) / max(t[-1] - t[0], 1e-9)
     slow = posture_features(t, a, s)
-    limits = np.array([s.change_pitch_deg, s.change_roll_deg, math.log(s.change_swing_ratio)])
+    limits = change_limits(s)
     out: list[float] = []
 
     def split(i0: int, i1: int) -> None:
