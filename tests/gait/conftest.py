@@ -33,7 +33,7 @@ def _make(
 ) -> SyntheticImu:
     """``plan``: ("stand"|"walk"|"turn", seconds) pieces in order; a turn is walked through (steps continue).
     ``step_s``: step duration, or (a, b) alternating durations (asymmetric gait). ``up``: the sensor axis that
-    points up (camera frame: -y)."""
+    points up (camera frame: -y). ``turn_deg`` > 0 turns right (clockwise seen from above), as yaw does."""
     rng = np.random.default_rng(seed)
     total = sum(d for _, d in plan)
     t = np.arange(0.0, total, 1.0 / rate_hz)
@@ -73,7 +73,7 @@ def _make(
         bouts.append((bout_start, steps[-1]))
     u = np.asarray(up, dtype=float)
     acc = (G + vert)[:, None] * u + rng.normal(0.0, noise, (t.size, 3))
-    gyr = heading_rate[:, None] * u + rng.normal(0.0, 0.01, (t.size, 3))
+    gyr = -heading_rate[:, None] * u + rng.normal(0.0, 0.01, (t.size, 3))  # about the down axis: > 0 turns right
     return SyntheticImu(t, acc, gyr, np.asarray(steps), bouts, turns)
 
 

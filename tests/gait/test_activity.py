@@ -46,6 +46,22 @@ def test_walk_without_standing_start_with_pause_and_turns(synthetic_imu) -> None
     assert act.tolist() == ["walking", "turning", "walking", "standing", "turning"]
 
 
+def test_turn_angles_follow_the_yaw_convention_from_imu_and_from_angles() -> None:
+    """A simulated wearer turns right then left (``turn:+DEG`` > 0 right, as yaw > 0 turns right): the turns found
+    from the IMU's gyro (about gravity's axis, sensor axes) and from the camera's angles carry the same signs."""
+    from walkmon.simulate.gait import GaitModel
+    from walkmon.simulate.imu import simulate_imu
+
+    m = GaitModel("stand:2,normal:4,turn:90,normal:4,turn:-180,normal:4,stand:2", seed=4)
+    imu = simulate_imu(m)
+    t = np.arange(0.0, m.duration_s, 1 / 30)
+    for sig in (signals_from_imu(imu.t_s, imu.accelerometer_mps2, imu.gyroscope_rps),
+                signals_from_angles(t, m.truth_angles_deg(t))):
+        turns = [u.angle_deg for u in segment(sig).turns]
+        assert len(turns) == 2, (sig.kind, turns)
+        assert turns[0] == pytest.approx(90.0, abs=20.0) and turns[1] == pytest.approx(-180.0, abs=25.0), sig.kind
+
+
 def test_asymmetric_and_slow_gait_cadence(synthetic_imu) -> None:
     # alternating 0.5 / 0.7 s steps (a limp): 100 steps/min; and a slow walker at 72 steps/min
     imu = synthetic_imu([("stand", 2), ("walk", 20), ("stand", 2)], step_s=(0.5, 0.7), seed=2)

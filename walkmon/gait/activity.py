@@ -306,7 +306,8 @@ def signals_from_imu(
     heading = gnorm = None
     if gyr is not None:
         _, gyr_u = _resample(t, gyr, fs)
-        heading = np.degrees(np.einsum("ij,ij->i", gyr_u, up))
+        # the rate about the down axis: > 0 turns right, as yaw does (walkmon.consts), for any sensor mounting
+        heading = -np.degrees(np.einsum("ij,ij->i", gyr_u, up))
         gnorm = np.degrees(np.linalg.norm(gyr_u, axis=1))
     tilt = np.degrees(np.column_stack([np.arcsin(np.clip(up[:, 2], -1, 1)), np.arcsin(np.clip(up[:, 0], -1, 1))]))
     change = tilt_change_deg(acc_u, None if gyr is None else gyr_u, fs, settings.reorient_window_s)
