@@ -128,6 +128,10 @@ class ActivitySettings:
     # an added step lies this many median steps from its neighbour (the first and last steps are slower)
     edge_rhythm: tuple[float, float] = (0.7, 1.3)
     edge_prominence: float = 0.6  # x the bout's RMS of the one-step detrended pitch (a steady step: ~2.8)
+    # camera angles: a rhythm at which yaw and roll correlate above this is a stride (:func:`_is_stride`); the
+    # steps are then the maxima of the step signal's step-frequency band, this many times the step frequency
+    stride_sway_r: float = 0.2
+    stride_band: tuple[float, float] = (0.7, 1.3)
     # where the trunk's tilt spreads over more than this within reorient_window_s (outside turns), the sensor is
     # being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`); the
     # window is applied when the signals are made (signals_from_imu / signals_from_angles)
@@ -170,6 +174,9 @@ class TrunkSignals:
     #: how far the trunk's tilt spreads within ``reorient_window_s`` about each sample, degrees (gravity's
     #: direction in an IMU, :func:`tilt_change_deg`; a camera's pitch and roll), for the handling rule
     tilt_change_deg: NDArray[np.float64] | None = None
+    #: the camera's yaw and roll (angles only, (N,2) degrees): the trunk's axial rotation and side bend, which
+    #: swing once per stride, for telling a step from a stride (:func:`_is_stride`)
+    sway_deg: NDArray[np.float64] | None = None
 
     @property
     def rate_hz(self) -> float:
@@ -376,7 +383,8 @@ def signals_from_angles(
     glitch = max(3, int(round(0.1 * fps)) | 1)
     tilt = np.column_stack([np.interp(grid, t, median_filter(x, size=glitch, mode="nearest")) for x in smooth])
     change = _window_range(tilt, settings.rate_hz, settings.reorient_window_s)
-    return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change)
+    return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change,
+                        sway_deg=a_u[:, 1:3].copy())
 
 
 def without_jumps(t_s: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -413,6 +421,17 @@ _JUMP_FACTOR = 6.0
 
 
 # --------------------------------------------------------------------------------------------- gait windows
+def _autocorrelation(seg: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """Normalised autocorrelation of a window, unbiased (each lag's product sum over its overlap); None when flat."""
+    seg = seg - seg.mean()
+    e = float(np.dot(seg, seg))
+    if e <= 0:
+        return None
+    ac = np.correlate(seg, seg, mode="full")[len(seg) - 1 :]
+    overlap = len(seg) - np.arange(len(ac))
+    return ac / e * len(seg) / np.maximum(overlap, 1)
+
+
 def _windowed_gait(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Per hop: centre times, band RMS, periodicity (max normalised autocorrelation at a step or stride lag)
     and the step period in s (NaN where no rhythm)."""
@@ -432,20 +451,36 @@ def _windowed_gait(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray, NDA
         seg = x[i0:i1]
         if len(seg) < 2 * lag_hi // 2 + 4:
             continue
-        seg = seg - seg.mean()
-        rms[j] = float(np.sqrt(np.mean(seg * seg)))
-        e = float(np.dot(seg, seg))
-        if e <= 0:
+        rms[j] = float(np.sqrt(np.mean((seg - seg.mean()) ** 2)))
+        ac = _autocorrelation(seg)
+        if ac is None:
             continue
-        ac = np.correlate(seg, seg, mode="full")[len(seg) - 1 :]
-        # unbiased normalisation: each lag's product sum over its overlap
-        overlap = len(seg) - np.arange(len(ac))
-        ac = ac / e * len(seg) / np.maximum(overlap, 1)
         hi = min(2 * lag_hi, len(ac) - 1)
         if hi <= lag_lo:
             continue
         per[j], period[j] = _step_lag(ac, lag_lo, hi, fs)
     return sig.t_s[centres], rms, per, period
+
+
+def _is_stride(p: float, sway: NDArray[np.float64] | None, s: ActivitySettings) -> bool:
+    """True when a gait region's rhythm ``p`` (s, the step signal's strongest lag) is a stride, not a step.
+
+    Camera angles: the pitch can repeat once per stride, not per step, where the left and right steps move the
+    trunk differently (on the real lower-back walks of Mobilise-D the pitch was anti-correlated at the step
+    lag, -0.4, and correlated at the stride lag, +0.9: the cadences came out half the reference's). The
+    trunk's axial rotation and side bend (yaw, roll; ``sway`` (N,2) band-passed) swing once per stride in any
+    gait: one step later they are in anti-phase, one stride later in phase. So the lag is a stride where they
+    correlate at it above ``stride_sway_r`` over a region of three strides or more. A lag longer than the
+    longest step (``step_period_s``) is not halved without them either: a slow rhythm that is no gait (a
+    camera handled for seconds) then found steps.
+    """
+    if sway is None or p < 2 * s.step_period_s[0]:
+        return False
+    k = int(round(p * s.rate_hz))
+    acs = [a for a in (_autocorrelation(sway[:, c]) for c in range(sway.shape[1])) if a is not None]
+    if not acs or 3 * k > min(len(a) for a in acs):
+        return False  # fewer than three strides: their correlation rests on too short an overlap
+    return float(np.mean([a[k] for a in acs])) > s.stride_sway_r
 
 
 def _step_lag(ac: NDArray[np.float64], lag_lo: int, lag_hi: int, fs: float) -> tuple[float, float]:
@@ -492,6 +527,9 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
 
     fs = s.rate_hz
     tc, rms, per, period = _windowed_gait(sig, s)
+    sway = None
+    if sig.sway_deg is not None and len(sig.t_s) > 12:
+        sway = _butter(sig.sway_deg - np.mean(sig.sway_deg, axis=0), fs, (0.3, 3.0), "band")
     min_rms = s.min_rms_deg if sig.kind == "angles" else s.min_rms_acc
     gait = (per >= s.min_periodicity) & (rms >= min_rms) & np.isfinite(period)
     steps: list[float] = []
@@ -504,8 +542,14 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
         if i1 - i0 < int(fs):
             continue
         p = float(np.nanmedian(period[j0:j1]))
+        strided = _is_stride(p, None if sway is None else sway[i0:i1], s)
+        if strided:
+            p /= 2.0
         f = 1.0 / p
-        y = _butter(sig.step[i0:i1] - np.mean(sig.step[i0:i1]), fs, (0.25, s.lowpass_factor * f), "band")
+        # a step signal that repeats once per stride has one clear maximum per stride: its step-frequency
+        # component alone (a narrow band about it) has one per step
+        band = (s.stride_band[0] * f, s.stride_band[1] * f) if strided else (0.25, s.lowpass_factor * f)
+        y = _butter(sig.step[i0:i1] - np.mean(sig.step[i0:i1]), fs, band, "band")
         amp = np.sqrt(np.mean(y * y))
         pk, _ = find_peaks(y, distance=max(1, int(s.min_step_fraction * p * fs)), prominence=0.5 * amp)
         for k in pk:
