@@ -9,7 +9,10 @@ Data (see /work/shared/data/README.md, found beside the checkout as in the other
   (100 Hz), participants HA/002 (healthy) and MS/001 (multiple sclerosis); ``Test5`` straight walks, ``Test11``
   a simulated daily-living course. Reference: the INDIP system's MicroWB walking bouts (start, end, cadence);
   HA/002's Test5 has no INDIP bouts, its Stereophoto bouts are used where present (said in the table).
-  walkmon runs on the IMU (gyro + acc) and on the accelerometer alone; ``mobgap``'s MobilisedPipelineHealthy
+  walkmon runs on the IMU (gyro + acc), on the accelerometer alone, and on the IMU's orientation alone
+  (``walkmon angles``: start-relative pitch/yaw/roll in camera axes through the video path's segmentation, the
+  only real trunk rotation with a gait reference we have for a camera; the lower back, not the chest, so a
+  proxy); ``mobgap``'s MobilisedPipelineHealthy
   and MobilisedPipelineImpaired run on the same trials (a yardstick, not a dependency).
 * Oxford Step Counter data set (github.com/Oxford-step-counter/DataSet, CC BY 4.0): a phone accelerometer in a
   neck pouch, six sessions; truth: foot-switch steps. walkmon runs on the accelerometer alone.
@@ -51,6 +54,7 @@ from walkmon.gait.activity import (  # noqa: E402
     DEFAULT_ACTIVITY_SETTINGS,
     cadence_from_steps,
     segment,
+    signals_from_angles,
     signals_from_imu,
 )
 
@@ -123,14 +127,24 @@ def pct(a: float, b: float) -> float:
     return 100.0 * (a - b) / b if np.isfinite(a) and np.isfinite(b) and b else float("nan")
 
 
-def run_walkmon(trial: dict, acc_only: bool) -> dict:
-    sig = signals_from_imu(trial["t"], trial["acc"], None if acc_only else trial["gyr"])
+def run_walkmon(trial: dict, kind: str) -> dict:
+    """walkmon's segmentation of a trial from ``kind``: ``imu`` (gyro + acc), ``acc`` (accelerometer alone) or
+    ``angles`` (the IMU's orientation only, start-relative pitch/yaw/roll in camera axes: what a camera
+    measures of its own rotation, through the video path's segmentation)."""
+    if kind == "angles":
+        from walkmon.imu.recordings import ImuRecording, imu_only_columns
+
+        cols = imu_only_columns(ImuRecording(trial["t"].copy(), trial["gyr"] @ LOWER_BACK_TO_CAMERA.T,
+                                             trial["acc"] @ LOWER_BACK_TO_CAMERA.T))
+        sig = signals_from_angles(cols["t"], np.column_stack([cols["pitch"], cols["yaw"], cols["roll"]]))
+    else:
+        sig = signals_from_imu(trial["t"], trial["acc"], None if kind == "acc" else trial["gyr"])
     seg = segment(sig)
     bouts = [(b.start_s, b.end_s, b.cadence_spm) for b in seg.bouts]
     per_ref = []
     for s, e, c in trial["ref"]:
         st = seg.steps_s[(seg.steps_s >= s - 0.3) & (seg.steps_s <= e + 0.3)]
-        per_ref.append(pct(cadence_from_steps(st, DEFAULT_ACTIVITY_SETTINGS), c))
+        per_ref.append(pct(cadence_from_steps(st, DEFAULT_ACTIVITY_SETTINGS, mend=kind != "angles"), c))
     return {"bouts": bouts, "per_ref": per_ref, "turns": len(seg.turns)}
 
 
@@ -296,7 +310,8 @@ def main() -> int:
         ref_bouts = [(s, e) for s, e, _ in tr["ref"]]
         ref_cad = weighted_cadence(tr["ref"])
         t_end = float(tr["t"][-1])
-        methods = {"walkmon imu": run_walkmon(tr, False), "walkmon acc": run_walkmon(tr, True)}
+        methods = {"walkmon imu": run_walkmon(tr, "imu"), "walkmon acc": run_walkmon(tr, "acc"),
+                   "walkmon angles": run_walkmon(tr, "angles")}
         for name, bouts in mg.get(tr["key"], {}).items():
             methods[f"mobgap {name}"] = {"bouts": bouts, "per_ref": mobgap_per_ref(bouts, tr["ref"])}
         for name, res in methods.items():
@@ -310,9 +325,12 @@ def main() -> int:
                                                if res["per_ref"] else float("nan")),
                 "cadence_spm": weighted_cadence(b), "ref_cadence_spm": ref_cad,
             }
+            n_nan = sum(1 for *_, c in b if not np.isfinite(c))
+            rec["bouts_without_cadence"] = n_nan
+            no_cad = f" ({n_nan} without a cadence)" if n_nan else ""
             doc_rows.append(rec)
             rows.append(
-                f"| {tr['key']} | {tr['ref_sys'] or 'none'} | {name} | {len(b)} / {len(tr['ref'])} | "
+                f"| {tr['key']} | {tr['ref_sys'] or 'none'} | {name} | {len(b)} / {len(tr['ref'])}{no_cad} | "
                 f"{num(rec['f1'], 3)} | {num(rec['cadence_spm'], 1)} / {num(ref_cad, 1)} | "
                 f"{fmt(rec['cadence_course_pct'])} | {fmt(rec['cadence_worst_ref_bout_pct'])} |"
             )
@@ -323,7 +341,7 @@ def main() -> int:
             continue
         t_end = float(tr["t"][-1])
         g = np.arange(0.0, t_end, 0.1)
-        ours = run_walkmon(tr, False)["bouts"]
+        ours = run_walkmon(tr, "imu")["bouts"]
         agree = mask([(s, e) for s, e, _ in ours], g)
         for bouts in got.values():
             agree &= mask([(s, e) for s, e, _ in bouts], g)
@@ -386,7 +404,10 @@ def main() -> int:
         "(github.com/Oxford-step-counter/DataSet, CC BY 4.0), phone accelerometer in a neck pouch.",
         "Thresholds set on HA/002 only; MS/001 and Oxford held out (the bouts' weak-edge-step rule: on HA/002",
         "Test5; the cadence's mending of missed/extra steps: on HA/002 Test11; the foot-drag evidence rule: from",
-        "the literature, checked on the simulator).",
+        "the literature, checked on the simulator). 'walkmon angles': the IMU's orientation alone through the",
+        "video path's segmentation (what a camera measures of its own rotation; the lower back, not the chest).",
+        "A bout whose step events are further apart than any step (median > 1.1 s) has no cadence (null, not",
+        "counted in the course cadence); the worst ref-bout column leaves such bouts out.",
         "",
         "| trial | reference | method | bouts (ours / ref) | walking F1 | cadence spm (ours / ref) | "
         "course cadence err % | worst ref-bout cadence err % |",

@@ -877,13 +877,19 @@ def cadence_from_steps(
       interval off the rhythm about it (more than ``rhythm_ratio`` x or less than 1 / ``rhythm_ratio`` x the
       median interval of ``rhythm_window_steps`` either side, that median kept within ``rhythm_ratio`` x the
       bout's so that a run of missed steps does not become the rhythm) is left out, pauses included; with fewer
-      than 2 strides left, as for trunk acceleration."""
+      than 2 strides left, as for trunk acceleration.
+
+    NaN (not measured) when the median interval is longer than the longest step (``step_period_s``): the
+    events are then not the steps (the rotation of a real daily-living course, short strides and constant
+    turning, gave maxima 1.1-1.8 s apart where INDIP counted steps 0.65-0.75 s apart, a cadence read at half)."""
     st = np.asarray(steps_s, dtype=float)
     st = st[np.isfinite(st)]
     if st.size < 2:
         return float("nan")
     s = settings
     d = corrected_step_times(st, s) if mend else np.diff(st)
+    if float(np.median(d)) > s.step_period_s[1]:
+        return float("nan")
     if d.size < 2:
         return float(60.0 / d[0])
     if not mend and d.size >= 5:
