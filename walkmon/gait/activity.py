@@ -128,9 +128,10 @@ class ActivitySettings:
     # an added step lies this many median steps from its neighbour (the first and last steps are slower)
     edge_rhythm: tuple[float, float] = (0.7, 1.3)
     edge_prominence: float = 0.6  # x the bout's RMS of the one-step detrended pitch (a steady step: ~2.8)
-    # camera angles: a rhythm at which yaw and roll correlate above this is a stride (:func:`_is_stride`); the
-    # steps are then the maxima of the step signal's step-frequency band, this many times the step frequency
-    stride_sway_r: float = 0.2
+    # camera angles: a yaw or roll correlated less than this with the pitch is evidence of the stride
+    # (:func:`_is_stride`); the steps are then the maxima of the step signal's step-frequency band, this many
+    # times the step frequency
+    stride_sway_independent: float = 0.5
     stride_band: tuple[float, float] = (0.7, 1.3)
     # where the trunk's tilt spreads over more than this within reorient_window_s (outside turns), the sensor is
     # being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`); the
@@ -462,25 +463,40 @@ def _windowed_gait(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray, NDA
     return sig.t_s[centres], rms, per, period
 
 
-def _is_stride(p: float, sway: NDArray[np.float64] | None, s: ActivitySettings) -> bool:
+def _is_stride(p: float, sway: NDArray[np.float64] | None, step: NDArray[np.float64], s: ActivitySettings) -> bool:
     """True when a gait region's rhythm ``p`` (s, the step signal's strongest lag) is a stride, not a step.
 
     Camera angles: the pitch can repeat once per stride, not per step, where the left and right steps move the
     trunk differently (on the real lower-back walks of Mobilise-D the pitch was anti-correlated at the step
     lag, -0.4, and correlated at the stride lag, +0.9: the cadences came out half the reference's). The
     trunk's axial rotation and side bend (yaw, roll; ``sway`` (N,2) band-passed) swing once per stride in any
-    gait: one step later they are in anti-phase, one stride later in phase. So the lag is a stride where they
-    correlate at it above ``stride_sway_r`` over a region of three strides or more. A lag longer than the
-    longest step (``step_period_s``) is not halved without them either: a slow rhythm that is no gait (a
-    camera handled for seconds) then found steps.
+    gait: one step later they are in anti-phase, one stride later in phase. So the lag is a stride where one of
+    them, about its ~2 s running median (a turn's heading ramp left in the yaw correlated it at every short
+    lag: a true 0.75 s step was halved; review), repeats at it (autocorrelation above ``min_periodicity``) and
+    is in anti-phase at half of it (below -``min_periodicity``), over a region of three strides or more, and
+    does not move with the pitch itself (zero-lag correlation with the step signal ``step`` below
+    ``stride_sway_independent``: a camera yawed on the chest puts the pitch's rhythm into its roll). A lag
+    longer than the longest step (``step_period_s``) is not halved without that evidence either: a slow
+    rhythm that is no gait (a camera handled for seconds) then found steps.
     """
     if sway is None or p < 2 * s.step_period_s[0]:
         return False
     k = int(round(p * s.rate_hz))
-    acs = [a for a in (_autocorrelation(sway[:, c]) for c in range(sway.shape[1])) if a is not None]
-    if not acs or 3 * k > min(len(a) for a in acs):
+    if 3 * k > sway.shape[0]:
         return False  # fewer than three strides: their correlation rests on too short an overlap
-    return float(np.mean([a[k] for a in acs])) > s.stride_sway_r
+    r = s.min_periodicity
+    x = step - step.mean()
+    for c in range(sway.shape[1]):
+        y = sway[:, c] - sway[:, c].mean()
+        ac = _autocorrelation(y)
+        if ac is None:
+            continue
+        # a channel that moves with the pitch (a camera yawed on the chest mixes the pitch into roll) is the
+        # pitch's rhythm again, no evidence of a stride
+        together = abs(float(np.dot(x, y))) / max(float(np.linalg.norm(x) * np.linalg.norm(y)), 1e-12)
+        if together < s.stride_sway_independent and ac[k] > r and ac[k // 2] < -r:
+            return True
+    return False
 
 
 def _step_lag(ac: NDArray[np.float64], lag_lo: int, lag_hi: int, fs: float) -> tuple[float, float]:
@@ -527,9 +543,15 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
 
     fs = s.rate_hz
     tc, rms, per, period = _windowed_gait(sig, s)
-    sway = None
+    sway, band_step = None, sig.step
     if sig.sway_deg is not None and len(sig.t_s) > 12:
-        sway = _butter(sig.sway_deg - np.mean(sig.sway_deg, axis=0), fs, (0.3, 3.0), "band")
+        from scipy.ndimage import median_filter
+
+        # about a 2 s running median: a turn's heading ramp goes (it correlated yaw at every short lag), a
+        # stride's sway (1-1.7 s) stays
+        x = sig.sway_deg - median_filter(sig.sway_deg, size=(int(2 * fs) | 1, 1), mode="nearest")
+        sway = _butter(x, fs, (0.3, 3.0), "band")
+        band_step = _butter(sig.step, fs, (0.3, 3.0), "band")
     min_rms = s.min_rms_deg if sig.kind == "angles" else s.min_rms_acc
     gait = (per >= s.min_periodicity) & (rms >= min_rms) & np.isfinite(period)
     steps: list[float] = []
@@ -542,7 +564,7 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
         if i1 - i0 < int(fs):
             continue
         p = float(np.nanmedian(period[j0:j1]))
-        strided = _is_stride(p, None if sway is None else sway[i0:i1], s)
+        strided = _is_stride(p, None if sway is None else sway[i0:i1], band_step[i0:i1], s)
         if strided:
             p /= 2.0
         f = 1.0 / p
