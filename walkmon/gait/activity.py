@@ -131,7 +131,7 @@ class ActivitySettings:
     # camera angles: a yaw or roll correlated less than this with the pitch is evidence of the stride
     # (:func:`_is_stride`); the steps are then the maxima of the step signal's step-frequency band, this many
     # times the step frequency
-    stride_sway_independent: float = 0.5
+    stride_sway_independent: float = 0.8
     stride_band: tuple[float, float] = (0.7, 1.3)
     # where the trunk's tilt spreads over more than this within reorient_window_s (outside turns), the sensor is
     # being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`); the
@@ -474,8 +474,9 @@ def _is_stride(p: float, sway: NDArray[np.float64] | None, step: NDArray[np.floa
     them, about its ~2 s running median (a turn's heading ramp left in the yaw correlated it at every short
     lag: a true 0.75 s step was halved; review), repeats at it (autocorrelation above ``min_periodicity``) and
     is in anti-phase at half of it (below -``min_periodicity``), over a region of three strides or more, and
-    does not move with the pitch itself (zero-lag correlation with the step signal ``step`` below
-    ``stride_sway_independent``: a camera yawed on the chest puts the pitch's rhythm into its roll). A lag
+    is not nearly the pitch itself (zero-lag correlation with the step signal ``step`` below
+    ``stride_sway_independent``: a camera yawed on the chest puts the pitch's rhythm into its roll), while no
+    channel is in anti-phase at the lag itself (that says the lag is a step: a stride's sway half a stride on). A lag
     longer than the longest step (``step_period_s``) is not halved without that evidence either: a slow
     rhythm that is no gait (a camera handled for seconds) then found steps.
     """
@@ -486,17 +487,19 @@ def _is_stride(p: float, sway: NDArray[np.float64] | None, step: NDArray[np.floa
         return False  # fewer than three strides: their correlation rests on too short an overlap
     r = s.min_periodicity
     x = step - step.mean()
+    support = False
     for c in range(sway.shape[1]):
         y = sway[:, c] - sway[:, c].mean()
         ac = _autocorrelation(y)
         if ac is None:
             continue
-        # a channel that moves with the pitch (a camera yawed on the chest mixes the pitch into roll) is the
-        # pitch's rhythm again, no evidence of a stride
+        if ac[k] < -r:
+            return False  # this sway is in anti-phase one lag later: the lag is a step
+        # a channel that is nearly the pitch again (a camera yawed on the chest mixes the pitch into its roll)
+        # is the pitch's own rhythm, no evidence of a stride
         together = abs(float(np.dot(x, y))) / max(float(np.linalg.norm(x) * np.linalg.norm(y)), 1e-12)
-        if together < s.stride_sway_independent and ac[k] > r and ac[k // 2] < -r:
-            return True
-    return False
+        support |= together < s.stride_sway_independent and ac[k] > r and ac[k // 2] < -r
+    return support
 
 
 def _step_lag(ac: NDArray[np.float64], lag_lo: int, lag_hi: int, fs: float) -> tuple[float, float]:
