@@ -128,10 +128,8 @@ class ActivitySettings:
     # an added step lies this many median steps from its neighbour (the first and last steps are slower)
     edge_rhythm: tuple[float, float] = (0.7, 1.3)
     edge_prominence: float = 0.6  # x the bout's RMS of the one-step detrended pitch (a steady step: ~2.8)
-    # camera angles: a yaw or roll correlated less than this with the pitch is evidence of the stride
-    # (:func:`_is_stride`); the steps are then the maxima of the step signal's step-frequency band, this many
-    # times the step frequency
-    stride_sway_independent: float = 0.8
+    # camera angles: where the pitch repeats once per stride (:func:`_is_stride`), the steps are the maxima of
+    # its step-frequency band, this many times the step frequency
     stride_band: tuple[float, float] = (0.7, 1.3)
     # where the trunk's tilt spreads over more than this within reorient_window_s (outside turns), the sensor is
     # being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`); the
@@ -463,7 +461,7 @@ def _windowed_gait(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray, NDA
     return sig.t_s[centres], rms, per, period
 
 
-def _is_stride(p: float, sway: NDArray[np.float64] | None, step: NDArray[np.float64], s: ActivitySettings) -> bool:
+def _is_stride(p: float, sway: NDArray[np.float64] | None, s: ActivitySettings) -> bool:
     """True when a gait region's rhythm ``p`` (s, the step signal's strongest lag) is a stride, not a step.
 
     Camera angles: the pitch can repeat once per stride, not per step, where the left and right steps move the
@@ -473,10 +471,12 @@ def _is_stride(p: float, sway: NDArray[np.float64] | None, step: NDArray[np.floa
     gait: one step later they are in anti-phase, one stride later in phase. So the lag is a stride where one of
     them, about its ~2 s running median (a turn's heading ramp left in the yaw correlated it at every short
     lag: a true 0.75 s step was halved; review), repeats at it (autocorrelation above ``min_periodicity``) and
-    is in anti-phase at half of it (below -``min_periodicity``), over a region of three strides or more, and
-    is not nearly the pitch itself (zero-lag correlation with the step signal ``step`` below
-    ``stride_sway_independent``: a camera yawed on the chest puts the pitch's rhythm into its roll), while no
-    channel is in anti-phase at the lag itself (that says the lag is a step: a stride's sway half a stride on). A lag
+    is in anti-phase at half of it (below -``min_periodicity``), over a region of three strides or more, while
+    no channel is in anti-phase at the lag itself (that says the lag is a step: a stride's sway half a stride
+    on; it also keeps a roll that copies a step-rhythm pitch, as a camera yawed on the chest gives, from
+    halving it, as long as the yaw sways at all). Whether a channel moves with the pitch is no test: a pitch
+    that repeats per stride shares the sway's frequency, and a bound on their correlation refused true
+    strides by their phase alone (review: a camera yawed 75-90 deg on the chest, 20-45 % of simulated walks). A lag
     longer than the longest step (``step_period_s``) is not halved without that evidence either: a slow
     rhythm that is no gait (a camera handled for seconds) then found steps.
     """
@@ -486,19 +486,14 @@ def _is_stride(p: float, sway: NDArray[np.float64] | None, step: NDArray[np.floa
     if 3 * k > sway.shape[0]:
         return False  # fewer than three strides: their correlation rests on too short an overlap
     r = s.min_periodicity
-    x = step - step.mean()
     support = False
     for c in range(sway.shape[1]):
-        y = sway[:, c] - sway[:, c].mean()
-        ac = _autocorrelation(y)
+        ac = _autocorrelation(sway[:, c])
         if ac is None:
             continue
         if ac[k] < -r:
             return False  # this sway is in anti-phase one lag later: the lag is a step
-        # a channel that is nearly the pitch again (a camera yawed on the chest mixes the pitch into its roll)
-        # is the pitch's own rhythm, no evidence of a stride
-        together = abs(float(np.dot(x, y))) / max(float(np.linalg.norm(x) * np.linalg.norm(y)), 1e-12)
-        support |= together < s.stride_sway_independent and ac[k] > r and ac[k // 2] < -r
+        support |= bool(ac[k] > r and ac[k // 2] < -r)
     return support
 
 
@@ -546,7 +541,7 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
 
     fs = s.rate_hz
     tc, rms, per, period = _windowed_gait(sig, s)
-    sway, band_step = None, sig.step
+    sway = None
     if sig.sway_deg is not None and len(sig.t_s) > 12:
         from scipy.ndimage import median_filter
 
@@ -554,7 +549,6 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
         # stride's sway (1-1.7 s) stays
         x = sig.sway_deg - median_filter(sig.sway_deg, size=(int(2 * fs) | 1, 1), mode="nearest")
         sway = _butter(x, fs, (0.3, 3.0), "band")
-        band_step = _butter(sig.step, fs, (0.3, 3.0), "band")
     min_rms = s.min_rms_deg if sig.kind == "angles" else s.min_rms_acc
     gait = (per >= s.min_periodicity) & (rms >= min_rms) & np.isfinite(period)
     steps: list[float] = []
@@ -567,7 +561,7 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
         if i1 - i0 < int(fs):
             continue
         p = float(np.nanmedian(period[j0:j1]))
-        strided = _is_stride(p, None if sway is None else sway[i0:i1], band_step[i0:i1], s)
+        strided = _is_stride(p, None if sway is None else sway[i0:i1], s)
         if strided:
             p /= 2.0
         f = 1.0 / p
