@@ -354,3 +354,31 @@ def test_most_unkind_sessions_move_without_walking_once() -> None:
     n = sum("unknown" in {p.activity for p in GaitModel(unkind_script(s, w), seed=s).pieces}
             for w in UNKIND_WALKS for s in range(1, 6))
     assert 10 <= n <= 19
+
+
+def test_lr_token_adds_a_stride_rhythm_to_the_pitch_only() -> None:
+    """``lr:X``: the pitch gains a stride-frequency component X times its step amplitude (real trunks pitch
+    differently on the two steps); lr:0 is the walk without the token, to the bit."""
+    from walkmon.simulate.gait import split_pitch_lr
+
+    t = np.arange(0.0, 20.0, 1 / 30)
+    plain = GaitModel("stand:2,normal:16,stand:2", seed=5)
+    zero = GaitModel("lr:0,stand:2,normal:16,stand:2", seed=5)
+    strong = GaitModel("lr:2,stand:2,normal:16,stand:2", seed=5)
+    assert strong.pitch_lr == 2.0 and strong.meta()["pitch_lr"] == 2.0
+    np.testing.assert_array_equal(zero.truth_angles_deg(t), plain.truth_angles_deg(t))
+    a, b = plain.truth_angles_deg(t), strong.truth_angles_deg(t)
+    assert np.abs(b[:, 1:] - a[:, 1:]).max() < 0.3  # yaw and roll as before (but for the Euler angles' coupling)
+    walk = (t > 4.0) & (t < 16.0)
+    x = b[walk, 0] - a[walk, 0]  # the added pitch: a sinusoid at the stride frequency
+    steps = plain.step_times_s()[0]
+    stride = 2 * float(np.median(np.diff(steps[(steps > 4.0) & (steps < 16.0)])))
+    spec = np.abs(np.fft.rfft(x - x.mean()))
+    f = np.fft.rfftfreq(x.size, 1 / 30)
+    assert abs(f[int(np.argmax(spec))] - 1 / stride) < 0.1
+    for bad in ("lr:-1,normal", "lr:4,normal", "lr:x,normal", "lr:1,lr:1,normal", "lr:1"):
+        with pytest.raises(InvalidInputError):
+            split_pitch_lr(bad)
+        with pytest.raises(InvalidInputError):
+            GaitModel(bad)
+

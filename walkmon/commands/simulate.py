@@ -14,7 +14,8 @@ _WALK_HELP = (
     "except in session scripts, taken literally: those with turn:DEGREES[:SECONDS] (> 0 right) or pause:SECONDS "
     "segments, e.g. stand:3,normal:10,turn:180,normal:8,pause:2,bend:10 (starts standing, ends mid-walk); "
     "mount:PITCH[:ROLL] anywhere tilts the camera (and its IMU) on the trunk, degrees (e.g. mount:-15: pointing "
-    "15 deg down); with --unkind, the walk type a random unkind session is built around"
+    "15 deg down); lr:X anywhere makes the trunk pitch differently on the left and right steps (a stride rhythm X "
+    "times the pitch's step amplitude, 0-3); with --unkind, the walk type a random unkind session is built around"
 )
 
 

@@ -9,4 +9,6 @@ from __future__ import annotations
 #: phases) so a walk type's alternating-step asymmetry shows in the contacts' step times (right_foot_drag).
 #: 4: the camera's mount on the trunk (script token ``mount:PITCH[:ROLL]``; unkind sessions draw one), meta.json
 #: ``mount_deg``; a session without the token is unchanged.
-SIMULATOR_VERSION = 4
+#: 5: the walker's left/right pitch difference (script token ``lr:X``; unkind sessions draw one, X 0-2), meta.json
+#: ``pitch_lr``; a session without the token is unchanged.
+SIMULATOR_VERSION = 5

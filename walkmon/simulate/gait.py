@@ -30,6 +30,7 @@ trunk); the truth angles are its decomposition with :func:`walkmon.consts.angles
 from __future__ import annotations
 
 import logging
+import math
 import re
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
@@ -54,6 +55,7 @@ __all__ = [
     "is_session_script",
     "parse_walk_script",
     "split_mount",
+    "split_pitch_lr",
 ]
 
 _log = logging.getLogger(__name__)
@@ -82,6 +84,14 @@ MOUNT_TOKEN = "mount"
 
 #: Mount angles a script may ask for, degrees (absolute value): pitch, roll.
 _MOUNT_LIMITS_DEG = (45.0, 20.0)
+
+#: Script token of the walker's left/right difference in trunk pitch: ``lr:X`` adds a stride-frequency component
+#: of X times the pitch's step-frequency amplitude to the pitch swing of every walk (default 0). Real trunks
+#: pitch differently on the left and right steps: on the Mobilise-D lower backs (healthy and MS) the pitch
+#: repeated once per stride (autocorrelation -0.4 at the step lag, +0.9 at the stride lag), i.e. X about 1-2.
+LR_TOKEN = "lr"
+_LR_MAX = 3.0
+_LR_PHASE = 1.0  # rad, against the asymmetric walk's own stride component (no new random draw: lr:0 is as before)
 
 #: Turn angles a script may ask for, degrees (absolute value).
 _TURN_LIMITS_DEG = (10.0, 360.0)
@@ -184,6 +194,33 @@ def split_mount(script: str) -> tuple[str, tuple[float, float]]:
     return rest, (pitch, roll)
 
 
+def split_pitch_lr(script: str) -> tuple[str, float]:
+    """``(script without its lr token, X)``; 0 without an ``lr:X`` token (see :data:`LR_TOKEN`)."""
+    if not isinstance(script, str):
+        return script, 0.0
+    parts = [p.strip() for p in script.strip().split(",")]
+    found = [p for p in parts if p.lower().split(":")[0] == LR_TOKEN]
+    if not found:
+        return script, 0.0
+    if len(found) > 1:
+        msg = f"walk script {script!r}: one lr:X token at most"
+        raise InvalidInputError(msg)
+    fields = found[0].split(":")[1:]
+    try:
+        value = float(fields[0]) if len(fields) == 1 else math.nan
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0.0 <= value <= _LR_MAX):
+        msg = (f"walk script {script!r}: cannot parse {found[0]!r} (expected lr:X, the left/right pitch difference "
+               f"as a multiple of the pitch's step amplitude, 0-{_LR_MAX:g})")
+        raise InvalidInputError(msg)
+    rest = ",".join(p for p in parts if p not in found)
+    if not rest:
+        msg = f"walk script {script!r}: an lr token needs a walk beside it, e.g. lr:1,normal"
+        raise InvalidInputError(msg)
+    return rest, value
+
+
 def is_session_script(segments: list[Segment], stand_s: float = STANDING_S) -> bool:
     """True when the script is taken literally (it has turns or pauses, or no standing is added at the ends)."""
     return stand_s == 0 or any(seg.walk in SESSION_TOKENS for seg in segments)
@@ -223,6 +260,7 @@ def parse_walk_script(script: str, seconds: float | None = None, *, stand_s: flo
         msg = f"walk script must be a walk type or a list like 'normal:10,bend:10', got {script!r}"
         raise InvalidInputError(msg)
     script, _mount = split_mount(script)  # the camera's mount is no segment (checked there, kept by GaitModel)
+    script, _lr = split_pitch_lr(script)  # nor is the walker's left/right pitch difference
     parts = [p.strip() for p in script.strip().lower().split(",")]
     segments: list[Segment] = []
     for part in parts:
@@ -341,6 +379,8 @@ class GaitModel:
     pieces: tuple[TimelinePiece, ...] = field(init=False)
     #: (pitch, roll) of the camera on the trunk, degrees (from the script's mount token; (0, 0): level)
     mount_deg: tuple[float, float] = field(init=False)
+    #: the walker's left/right pitch difference (from the script's lr token, :data:`LR_TOKEN`; 0: none)
+    pitch_lr: float = field(init=False)
     _splines: dict[str, CubicSpline] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -352,6 +392,8 @@ class GaitModel:
             raise InvalidInputError(msg)
         walk_script, mount = split_mount(self.script)
         object.__setattr__(self, "mount_deg", mount)
+        walk_script, lr = split_pitch_lr(walk_script)
+        object.__setattr__(self, "pitch_lr", lr)
         script_segments = parse_walk_script(walk_script, self.seconds, stand_s=self.stand_s)
         literal = is_session_script(script_segments, self.stand_s)
         object.__setattr__(self, "literal", literal)
@@ -474,6 +516,7 @@ class GaitModel:
         # --- step-frequency signals
         pitch_osc = blend("pitch_amplitude_deg") * v[:, 0] * (
             np.cos(two_pi_phi + ph[0]) + h2[0] * np.cos(2 * two_pi_phi + ph[1]) + 0.5 * asym * np.cos(stride + ph[2])
+            + self.pitch_lr * np.cos(stride + ph[2] + _LR_PHASE)
         )
         bob = blend("bob_amplitude_m") * v[:, 1] * (
             np.cos(two_pi_phi) + h2[1] * np.cos(2 * two_pi_phi + ph[3]) + 0.6 * asym * np.cos(stride + ph[4])
@@ -612,6 +655,7 @@ class GaitModel:
             "standing_intervals_s": [[round(a, 6), round(b, 6)] for a, b in self.standing_intervals_s],
             "camera_height_m": self.camera_height_m,
             "mount_deg": {"pitch": self.mount_deg[0], "roll": self.mount_deg[1]},
+            "pitch_lr": self.pitch_lr,
             "segments": [p.to_dict() for p in self.segments],
         }
 
@@ -1042,6 +1086,7 @@ def _build_session(model: GaitModel, script_segments: list[Segment]) -> None:  #
     stride = np.pi * phi
     pitch_osc = vals["pitch_amplitude_deg"] * v[:, 0] * (
         np.cos(two_pi_phi + ph[0]) + h2[0] * np.cos(2 * two_pi_phi + ph[1]) + 0.5 * asym * np.cos(stride + ph[2])
+        + model.pitch_lr * np.cos(stride + ph[2] + _LR_PHASE)
     )
     bob = vals["bob_amplitude_m"] * v[:, 1] * (
         np.cos(two_pi_phi) + h2[1] * np.cos(2 * two_pi_phi + ph[3]) + 0.6 * asym * np.cos(stride + ph[4])

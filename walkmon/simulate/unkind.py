@@ -7,7 +7,9 @@ few steps towards it), moves without a gait rhythm once in most sessions (sits d
 pick something up or handles the camera: the truth's ``unknown``), changes posture in
 the middle of a bout (to ``bend`` and back for a normal walker, to ``normal`` and back for the others, each
 posture held long enough to measure: >= 6 s) and ends standing or mid-walk. The camera sits on the trunk
-tilted as a chest mount holds it (``mount:PITCH:ROLL``: 25 deg down to 5 deg up, +-3 deg askew). The same seed gives the same
+tilted as a chest mount holds it (``mount:PITCH:ROLL``: 25 deg down to 5 deg up, +-3 deg askew), and the walker's
+trunk pitches differently on the left and right steps (``lr:X``, X 0-2: from none to a pitch that repeats once
+per stride, as on the real Mobilise-D lower backs). The same seed gives the same
 script; the script itself is the truth's description (``GaitModel`` lays it out and records the timeline).
 """
 
@@ -89,4 +91,8 @@ def unkind_script(seed: int, walk: str = "normal") -> str:
     # level; it points a little down at the path (here 0-25 deg, or up to 5 deg up) and sits a few degrees askew
     mnt = np.random.default_rng([int(seed), 0x0C1F, UNKIND_WALKS.index(walk)])
     parts.insert(0, f"mount:{_s(mnt.uniform(-25.0, 5.0))}:{_s(mnt.uniform(-3.0, 3.0))}")
+    # the walker's left/right difference in trunk pitch (a stream of its own): real trunks pitch differently on
+    # the two steps, enough on the Mobilise-D lower backs for the pitch to repeat once per stride (lr 1-2)
+    lrg = np.random.default_rng([int(seed), 0x0C20, UNKIND_WALKS.index(walk)])
+    parts.insert(1, f"lr:{_s(lrg.uniform(0.0, 2.0))}")
     return ",".join(parts)
