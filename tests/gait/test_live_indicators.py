@@ -147,7 +147,8 @@ def test_reset_restores_initial_state_and_settings_are_frozen_and_validated() ->
 def test_live_and_offline_label_the_same_windows_alike(walk: str) -> None:
     """Issue 10/11: one classifier. Every live window of a steady simulated walk is also analysed offline
     (walkmon.gait.session.analyze_session on exactly the window's samples, with the live upright reference):
-    the labels are identical, and they are the simulated walk type."""
+    the labels are identical, and they are the simulated walk type; a dragged foot is `unclassified` from the
+    camera's rotation alone (its pitch maxima are no evidence of the feet's step times)."""
     from walkmon.gait.session import analyze_session
     from walkmon.simulate.gait import GaitModel
 
@@ -162,7 +163,8 @@ def test_live_and_offline_label_the_same_windows_alike(walk: str) -> None:
             continue
         m = (t > r.t_s - stage.settings.window_s) & (t <= r.t_s)
         offline = analyze_session(t[m], a[m], reference_deg=stage.reference_deg).indicators
-        assert r.label == offline.classification.label == walk, (r.t_s, r.reasons, offline.classification)
+        want = "unclassified" if walk == "right_foot_drag" else walk
+        assert r.label == offline.classification.label == want, (r.t_s, r.reasons, offline.classification)
         checked += 1
     assert checked >= 10
 
@@ -190,12 +192,13 @@ def test_live_windows_agree_with_the_offline_analysis_of_the_whole_walk(walk: st
     a = model.truth_angles_deg(t) + np.random.default_rng(0).normal(0, 0.05, (t.size, 3))
     offline = compute_indicators(t, a).to_dict()
     res = [r for r in run_stage(t, a) if 11 <= r.t_s <= 21]  # windows inside the steady walk
-    # an 8 s window holds ~10 steps: the alternating-step evidence a foot-drag label needs without a baseline
-    # (a step time ratio >= 1.08 whose 95 % interval excludes symmetry) is weak there, and a window may fall back
-    # to 'unclassified' (never to another label); the other walks' labels need no such evidence
+    # a window may fall back to 'unclassified' (never to another label); the paper's whole-walk computation
+    # (compute_indicators) still names the dragged foot from its sway
     labels = [r.label for r in res]
-    share = 0.75 if walk == "right_foot_drag" else 0.9
-    assert set(labels) <= {walk, "unclassified"} and labels.count(walk) >= share * len(labels)
+    if walk == "right_foot_drag":  # the camera's rotation alone is no evidence of the feet's step times
+        assert set(labels) == {"unclassified"}
+    else:
+        assert set(labels) <= {walk, "unclassified"} and labels.count(walk) >= 0.9 * len(labels)
     assert offline["classification"]["label"] == walk
     assert np.median([r.cadence_spm for r in res]) == pytest.approx(offline["cadence_spm"], rel=0.01)
     for k, ax in enumerate(("pitch", "yaw", "roll")):
@@ -427,3 +430,22 @@ def test_a_tilted_camera_after_a_small_turn_raises_no_alert(turn_deg: int, seed:
     assert late and all(r.posture_doubt_deg > 5.0 for r in late)  # 2 sin(15..22 deg) x 20 deg
     before = [r for r in walking if r.t_s < last.start_s - 2.0]
     assert before and all(r.posture_doubt_deg < 1.0 for r in before)  # facing the reference's way: no doubt
+
+
+@pytest.mark.parametrize("lr", [1.0, 2.0])
+def test_a_trunk_that_pitches_differently_left_and_right_raises_no_asymmetry_alert(lr: float) -> None:
+    """A normal walk whose trunk pitches differently on the left and right steps (the simulator's lr token; real
+    trunks do, the Mobilise-D lower backs to the point of a pitch that repeats once per stride): the step times
+    do not alternate, but the pitch's stride-frequency amplitude and the timing of its maxima read as if they did
+    (an asymmetric_gait alert, alternate steps 1.27-1.5 apart): the camera alone measures no step asymmetry."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel(f"lr:{lr},stand:3,normal:30,stand:2", seed=4)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(3).normal(0, 0.02, (t.size, 3))
+    out, raised = run_with_alerts(t, a, LiveIndicatorStage())
+    assert [e.kind for e in raised] == []
+    walking = [r for r in out if r.walking]
+    assert walking and all(not np.isfinite(r.step_asymmetry) for r in walking)  # not measured from the camera
+    assert not any(r.label == "right_foot_drag" for r in walking)
+

@@ -83,8 +83,6 @@ class LiveIndicatorSettings:
     cadence_max_spm: float = 150.0
     #: Swings and inclinations are taken after a low-pass at this multiple of the step frequency (0: none).
     lowpass_factor: float = 3.0
-    #: Step asymmetry is only measured when the stride-by-stride mean pitch stays within this range, degrees.
-    steady_posture_range_deg: float = 3.0
     #: Upright calibration: this long a still stance, s ...
     calibration_s: float = 2.0
     #: ... with every axis' standard deviation below this, degrees.
@@ -553,24 +551,6 @@ class LiveIndicatorStage:
         sos = self._signal.butter(4, cutoff_hz, btype="low", fs=fs, output="sos")
         return self._signal.sosfiltfilt(sos, u, axis=0)
 
-    def _steady_walk(self, grid: NDArray[np.float64], u: NDArray[np.float64], fs: float, f_step: float) -> bool:
-        """True when the whole window is walking in one posture (no start/stop, no posture change in it).
-
-        Step asymmetry is measured only then: a posture change or a walk starting inside the window puts
-        energy at the stride frequency that has nothing to do with the left and right steps.
-        """
-        s = self.settings
-        if grid[-1] - grid[0] < 0.75 * s.window_s:
-            return False
-        head = u[grid <= grid[0] + s.walking_window_s]
-        if max(gait_band_rms_deg(head[:, k], fs, s.gait_band_hz) for k in (0, 2)) < s.walking_min_rms_deg:
-            return False
-        hi, lo = cycle_extremes(u[:, 0], fs, f_step / 2.0)
-        if hi.size < 2:
-            return False
-        mid = (hi + lo) / 2.0
-        return float(mid.max() - mid.min()) <= s.steady_posture_range_deg
-
     def _compute(self, t_now: float) -> LiveIndicators:
         s = self.settings
         t = np.fromiter(self._t, float)
@@ -599,16 +579,11 @@ class LiveIndicatorStage:
                     hi_d, lo_d = cycle_extremes(_detrend(smooth[:, k]), fs, cycle_hz)
                     sw.append(float(np.mean(hi_d - lo_d)) if hi_d.size else math.nan)
                     inc.append(float(np.mean((hi + lo) / 2.0)) if hi.size else math.nan)
-                # only over a straight walk filling the window (a turn in it read 0.7-1.5 on a symmetric walk), on
-                # a pitch that does not depend on the heading (_heading_free_pitch: a camera tilted on the chest
-                # that has turned 30-45 deg mixes the trunk's stride-frequency roll and yaw into its start-relative
-                # pitch, which raised asymmetric_gait on a symmetric walk)
-                straight = span is not None and span[0] <= grid[0] + 1.0
-                if straight and self._steady_walk(grid, u, fs, f_step):
-                    pitch = self._heading_free_pitch(t)
-                    if pitch is not None:
-                        _, lv = resample_uniform(t, pitch[:, None], fs)
-                        asym = step_asymmetry_from_pitch(lv[:, 0], fs, f_step)
+                # no step asymmetry from the camera's rotation (NaN): the pitch's stride-frequency amplitude
+                # (step_asymmetry_from_pitch) and the timing of its maxima both read a trunk that pitches
+                # differently on the left and right steps as asymmetric gait, and real trunks do (the Mobilise-D
+                # lower backs; the simulator's lr:X): with lr 1-2 it raised asymmetric_gait on 5 normal walks of
+                # the unkind replay and read alternate steps 1.27-1.5 apart on a symmetric one
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
         walking = activity == "walking"
         label, reasons = "not_walking", (f"activity {activity}: no walking bout reaching the present",)
@@ -673,19 +648,6 @@ class LiveIndicatorStage:
         out = a[recent].mean(axis=0)
         out[1] = (out[1] + 180.0) % 360.0 - 180.0  # the heading, shown within +-180
         return out
-
-    def _heading_free_pitch(self, t: NDArray[np.float64]) -> NDArray[np.float64] | None:
-        """The window's pitch in the level frame (gravity's direction known), the start-relative pitch while the
-        heading stays near the reference's (the tilt doubt over the window within the classifier's normal range),
-        else None."""
-        from walkmon.gait.posture import DEFAULT_POSTURE_THRESHOLDS  # noqa: PLC0415
-
-        a, ref = self._level(np.asarray(self._a, dtype=float))
-        if self._vertical is not None:
-            return a[:, 0]
-        if self._tilt_doubt_deg(a, ref, np.ones(len(t), bool))[0] >= DEFAULT_POSTURE_THRESHOLDS.normal_max_inclination_deg:
-            return None
-        return a[:, 0] - ref[0]
 
     def _posture_doubt_deg(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> float:
         """:meth:`_tilt_doubt_deg` of the ``recent`` samples (the posture the alerts react to)."""

@@ -690,6 +690,11 @@ def _steps_asymmetry(steps: NDArray[np.float64]) -> dict[str, float]:
     return alternation(d)
 
 
+#: The asymmetry key that marks step times taken from the camera's rotation (the pitch's maxima), which
+#: :func:`walkmon.gait.posture.classify` does not take as evidence that the feet's steps alternate.
+ROTATION_STEP_TIMES = "step_times_from_rotation"
+
+
 def span_indicators(
     t: NDArray, a: NDArray, t0: float, t1: float, ref: NDArray, sig_steps: NDArray, kind: str,
     settings: IndicatorSettings = DEFAULT_INDICATOR_SETTINGS, baseline: Mapping[str, Any] | None = None,
@@ -723,6 +728,7 @@ def span_indicators(
         # steps within half its window of a recording's edges (a live window): both are lower bounds
         cycles = asym.get("n_steps")
         asym["n_steps"] = max(float(cycles) if cycles is not None and math.isfinite(cycles) else 0.0, float(st.size))
+        asym[ROTATION_STEP_TIMES] = 1.0  # the pitch's maxima: no evidence of the feet's step times (posture.py)
     ind = replace(ind, cadence_spm=float(cadence), asymmetry=asym)
     if kind == "acc":
         # An accelerometer alone sees no turns (their centripetal acceleration tilts the low-passed "gravity") and
@@ -1151,7 +1157,8 @@ def _pooled_classification(
         "axes": {ax: axes[ax].to_dict() for ax in AXES},
         "asymmetry": {"step_time_ratio": alt["ratio"], "step_time_ratio_ci_low": alt["ratio_ci_low"],
                       "step_time_n_pairs": alt["n_pairs"], "n_steps": n_steps,
-                      "step_swing_ratio": sum(k * v for k, v in swing) / sum(k for k, _ in swing) if swing else None},
+                      "step_swing_ratio": sum(k * v for k, v in swing) / sum(k for k, _ in swing) if swing else None,
+                      **({ROTATION_STEP_TIMES: 1.0} if kind == "angles" else {})},
     }
     cls = classify(doc, base)
     where = ", ".join(f"{q0:.1f}-{q1:.1f} s" for q0, q1 in spans)
