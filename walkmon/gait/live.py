@@ -100,6 +100,8 @@ class LiveIndicatorSettings:
     shoulder_down_roll_deg: float = 4.0
     foot_drag_roll_swing_deg: float = 6.0
     foot_drag_asymmetry: float = 0.35
+    #: Deprecated likewise: the step asymmetry is no longer measured from the camera's rotation (not used).
+    steady_posture_range_deg: float = 3.0
 
     def __post_init__(self) -> None:
         for name in ("window_s", "hop_s", "posture_window_s", "walking_window_s", "calibration_s", "resample_hz",
