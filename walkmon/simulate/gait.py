@@ -167,57 +167,60 @@ def split_mount(script: str) -> tuple[str, tuple[float, float]]:
     a ``mount:PITCH[:ROLL]`` token (see :data:`MOUNT_TOKEN`)."""
     if not isinstance(script, str):
         return script, (0.0, 0.0)
-    parts = [p.strip() for p in script.strip().split(",")]
-    mounts = [p for p in parts if p.lower().split(":")[0] == MOUNT_TOKEN]
-    if not mounts:
+    rest, token = _script_token(script, MOUNT_TOKEN, "mount:PITCH[:ROLL]")
+    if token is None:
         return script, (0.0, 0.0)
-    if len(mounts) > 1:
-        msg = f"walk script {script!r}: one mount:PITCH[:ROLL] token at most"
-        raise InvalidInputError(msg)
-    fields = mounts[0].split(":")[1:]
     try:
-        vals = [float(v) for v in fields]
+        vals = [float(v) for v in token.split(":")[1:]]
     except ValueError:
         vals = []
     if not 1 <= len(vals) <= 2 or not all(np.isfinite(vals)):
-        msg = f"walk script {script!r}: cannot parse {mounts[0]!r} (expected mount:PITCH or mount:PITCH:ROLL, degrees)"
+        msg = f"walk script {script!r}: cannot parse {token!r} (expected mount:PITCH or mount:PITCH:ROLL, degrees)"
         raise InvalidInputError(msg)
     pitch, roll = vals[0], (vals[1] if len(vals) > 1 else 0.0)
     if abs(pitch) > _MOUNT_LIMITS_DEG[0] or abs(roll) > _MOUNT_LIMITS_DEG[1]:
         msg = (f"walk script {script!r}: the camera's mount must be within +-{_MOUNT_LIMITS_DEG[0]:g} deg pitch and "
                f"+-{_MOUNT_LIMITS_DEG[1]:g} deg roll on the trunk, got {pitch:g}, {roll:g}")
         raise InvalidInputError(msg)
-    rest = ",".join(p for p in parts if p not in mounts)
-    if not rest:
-        msg = f"walk script {script!r}: a mount token needs a walk beside it, e.g. mount:-15,normal"
-        raise InvalidInputError(msg)
+    _needs_walk(script, rest, "a mount token", "mount:-15,normal")
     return rest, (pitch, roll)
+
+
+def _script_token(script: str, name: str, form: str) -> tuple[str, str | None]:
+    """``(script without its NAME:... token, the token)``, or ``(script, None)`` without one; two are an error."""
+    parts = [p.strip() for p in script.strip().split(",")]
+    found = [p for p in parts if p.lower().split(":")[0] == name]
+    if not found:
+        return script, None
+    if len(found) > 1:
+        msg = f"walk script {script!r}: one {form} token at most"
+        raise InvalidInputError(msg)
+    return ",".join(p for p in parts if p not in found), found[0]
+
+
+def _needs_walk(script: str, rest: str, what: str, example: str) -> None:
+    if not rest:
+        msg = f"walk script {script!r}: {what} needs a walk beside it, e.g. {example}"
+        raise InvalidInputError(msg)
 
 
 def split_pitch_lr(script: str) -> tuple[str, float]:
     """``(script without its lr token, X)``; 0 without an ``lr:X`` token (see :data:`LR_TOKEN`)."""
     if not isinstance(script, str):
         return script, 0.0
-    parts = [p.strip() for p in script.strip().split(",")]
-    found = [p for p in parts if p.lower().split(":")[0] == LR_TOKEN]
-    if not found:
+    rest, token = _script_token(script, LR_TOKEN, "lr:X")
+    if token is None:
         return script, 0.0
-    if len(found) > 1:
-        msg = f"walk script {script!r}: one lr:X token at most"
-        raise InvalidInputError(msg)
-    fields = found[0].split(":")[1:]
+    fields = token.split(":")[1:]
     try:
         value = float(fields[0]) if len(fields) == 1 else math.nan
     except ValueError:
         value = math.nan
     if not (math.isfinite(value) and 0.0 <= value <= _LR_MAX):
-        msg = (f"walk script {script!r}: cannot parse {found[0]!r} (expected lr:X, the left/right pitch difference "
+        msg = (f"walk script {script!r}: cannot parse {token!r} (expected lr:X, the left/right pitch difference "
                f"as a multiple of the pitch's step amplitude, 0-{_LR_MAX:g})")
         raise InvalidInputError(msg)
-    rest = ",".join(p for p in parts if p not in found)
-    if not rest:
-        msg = f"walk script {script!r}: an lr token needs a walk beside it, e.g. lr:1,normal"
-        raise InvalidInputError(msg)
+    _needs_walk(script, rest, "an lr token", "lr:1,normal")
     return rest, value
 
 
