@@ -210,6 +210,8 @@ def live_replay(out_dir: Path, truth: Truth) -> dict[str, int]:
 
 
 def _live_lines(rows: list[dict]) -> list[str]:
+    from walkmon.live.alerts import CONDITIONS  # noqa: PLC0415
+
     tot: Counter[str] = Counter()
     for r in rows:
         tot.update(r.get("live") or {})
@@ -233,10 +235,9 @@ def _live_lines(rows: list[dict]) -> list[str]:
         "Alerts the live alert stage raised over the same replay, by the true posture of the walking over the alert's "
         "delay before it:",
         "",
-        "| true posture | lean_forward | shoulder_down | unsteady_gait | asymmetric_gait |",
-        "|---|---|---|---|---|",
-        *(f"| {p} | " + " | ".join(str(alert_pairs.get((p, k), 0)) for k in
-                                     ("lean_forward", "shoulder_down", "unsteady_gait", "asymmetric_gait")) + " |"
+        "| true posture | " + " | ".join(CONDITIONS) + " |",
+        "|---" * (len(CONDITIONS) + 1) + "|",
+        *(f"| {p} | " + " | ".join(str(alert_pairs.get((p, k), 0)) for k in CONDITIONS) + " |"
           for p in sorted({a for a, _ in alert_pairs})),
     ]
 

@@ -169,17 +169,6 @@ def test_live_and_offline_label_the_same_windows_alike(walk: str) -> None:
     assert checked >= 10
 
 
-def test_step_asymmetry_is_zero_for_alternating_equal_steps_and_grows_when_they_differ() -> None:
-    from walkmon.gait.live import step_asymmetry_from_pitch
-
-    t = np.arange(int(8 * FPS)) / FPS
-    f = 1.8
-    sym = np.sin(2 * np.pi * f * t)
-    assert step_asymmetry_from_pitch(sym, FPS, f) < 0.02
-    limp = sym * (1 + 0.5 * np.sign(np.sin(np.pi * f * t)))  # every other step 3x the swing of the other
-    assert step_asymmetry_from_pitch(limp, FPS, f) > 0.3
-
-
 @pytest.mark.parametrize("walk", ["normal", "right_foot_drag", "left_shoulder_down", "bend"])
 def test_live_windows_agree_with_the_offline_analysis_of_the_whole_walk(walk: str) -> None:
     """Median over the hops of a steady walk vs walkmon.gait.indicators on the whole session (offline targets:

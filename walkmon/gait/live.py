@@ -52,7 +52,6 @@ __all__ = [
     "cycle_extremes",
     "gait_band_rms_deg",
     "resample_uniform",
-    "step_asymmetry_from_pitch",
 ]
 
 LABELS = ("normal", "bend", "left_shoulder_down", "right_foot_drag", "not_walking", "unclassified")
@@ -303,29 +302,6 @@ def cycle_extremes(x: NDArray[np.float64], rate_hz: float, cycle_hz: float) -> t
     return seg.max(axis=1), seg.min(axis=1)
 
 
-def _amplitude_at(x: NDArray[np.float64], rate_hz: float, freq_hz: float) -> float:
-    """Amplitude of ``x`` (detrended, Hamming-tapered) at ``freq_hz`` by direct DFT projection."""
-    y = _detrend(np.asarray(x, dtype=float))
-    w = np.hamming(len(y))
-    n = np.arange(len(y))
-    return float(2.0 * abs(np.sum(w * y * np.exp(-2j * np.pi * freq_hz * n / rate_hz))) / np.sum(w))
-
-
-def step_asymmetry_from_pitch(pitch_deg: NDArray[np.float64], rate_hz: float, step_hz: float) -> float:
-    """Left/right step asymmetry: pitch amplitude at the stride frequency over that at the step frequency.
-
-    Steps alternate sides, so a symmetric gait moves pitch at the step frequency only; when left and right
-    steps differ (a dragged foot, a limp) the pattern repeats once per stride and a component at half the
-    step frequency appears. 0 for a symmetric gait; about 1 when alternate steps differ as much as they swing.
-    """
-    if len(pitch_deg) < 2 * rate_hz / max(step_hz, 1e-9):
-        return math.nan
-    a_step = _amplitude_at(pitch_deg, rate_hz, step_hz)
-    if a_step <= 1e-9:
-        return math.nan
-    return _amplitude_at(pitch_deg, rate_hz, step_hz / 2.0) / a_step
-
-
 # ------------------------------------------------------------------------------------------------- the stage
 
 
@@ -362,6 +338,11 @@ class LiveIndicatorStage:
         self._calibrated_at_s = math.nan
         self._pause_checked_s = -math.inf
         self._near_checked_s = -math.inf  # the last still stance checked against the walking posture
+
+    @property
+    def _gravity_known(self) -> bool:
+        """Whether an IMU fused with the camera has given gravity's direction (:meth:`_learn_gravity`)."""
+        return float(np.linalg.norm(self._gravity_sum)) > 0
 
     @property
     def reference_deg(self) -> NDArray[np.float64]:
@@ -449,7 +430,7 @@ class LiveIndicatorStage:
         (6-10), pathology hops on true normal walking 0 and 0 as before (with 8 deg: 354 and 383)."""
         from walkmon.gait.posture import DEFAULT_POSTURE_THRESHOLDS  # noqa: PLC0415
 
-        if not self._calibrated or self._rejected is not None or float(np.linalg.norm(self._gravity_sum)) > 0:
+        if not self._calibrated or self._rejected is not None or self._gravity_known:
             return
         if not self._turns_done_s > self._calibrated_at_s:  # no turn since the reference was taken
             return
@@ -567,7 +548,7 @@ class LiveIndicatorStage:
         gait_rms = max(gait_band_rms_deg(walk_part[:, k], fs, s.gait_band_hz) for k in (0, 2)) if len(walk_part) else 0.0
         walking = bool(gait_rms >= s.walking_min_rms_deg)
         cadence_spm = math.nan
-        swing, incl, asym = nan3, nan3, math.nan
+        swing, incl = nan3, nan3
         if walking and len(u) >= 16:
             band = (s.cadence_min_spm / 60.0, s.cadence_max_spm / 60.0)
             f_step, _ = cadence_hz_from_signal(u[:, 0], fs, band)
@@ -581,11 +562,12 @@ class LiveIndicatorStage:
                     hi_d, lo_d = cycle_extremes(_detrend(smooth[:, k]), fs, cycle_hz)
                     sw.append(float(np.mean(hi_d - lo_d)) if hi_d.size else math.nan)
                     inc.append(float(np.mean((hi + lo) / 2.0)) if hi.size else math.nan)
-                # no step asymmetry from the camera's rotation (NaN): the pitch's stride-frequency amplitude
-                # (step_asymmetry_from_pitch) and the timing of its maxima both read a trunk that pitches
-                # differently on the left and right steps as asymmetric gait, and real trunks do (the Mobilise-D
-                # lower backs; the simulator's lr:X): with lr 1-2 it raised asymmetric_gait on 5 normal walks of
-                # the unkind replay and read alternate steps 1.27-1.5 apart on a symmetric one
+                # no step asymmetry from the camera's rotation (step_asymmetry NaN): the pitch's stride-frequency
+                # amplitude over its step-frequency one (what the stage measured until 2026-11-27) and the timing
+                # of its maxima both read a trunk that pitches differently on the left and right steps as
+                # asymmetric gait, and real trunks do (the Mobilise-D lower backs; the simulator's lr:X): with
+                # lr 1-2 it raised asymmetric_gait on 5 normal walks of the unkind replay and read alternate
+                # steps 1.27-1.5 apart on a symmetric one
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
         walking = activity == "walking"
         label, reasons = "not_walking", (f"activity {activity}: no walking bout reaching the present",)
@@ -625,7 +607,7 @@ class LiveIndicatorStage:
             swing_deg=swing,  # type: ignore[arg-type]
             inclination_deg=incl,  # type: ignore[arg-type]
             posture_deg=posture,  # type: ignore[arg-type]
-            step_asymmetry=float(asym),
+            step_asymmetry=math.nan,  # not from the camera's rotation (see the swings above)
             label=label,
             reasons=reasons,
             calibrated=self._calibrated,
@@ -688,7 +670,7 @@ class LiveIndicatorStage:
             vertical_with_level,
         )
 
-        if float(np.linalg.norm(self._gravity_sum)) > 0:
+        if self._gravity_known:
             return  # an IMU gives gravity itself
         added = False
         for u in turns:
@@ -738,7 +720,7 @@ class LiveIndicatorStage:
           the trunk, up to ``mount_tilt_deg`` (20 deg, the offline analysis' a-priori bound). A camera 12 deg down
           read 5-10 deg of roll after a 30-45 deg turn (a corner, a curved path), which raised shoulder_down and
           labelled the normal walk left_shoulder_down (found in review, on simulator truth)."""
-        if float(np.linalg.norm(self._gravity_sum)) > 0 or not m.any():
+        if self._gravity_known or not m.any():
             return 0.0, ""
         yaw = np.radians(a[m, 1] - float(ref[1]))
         dpsi = abs(math.degrees(math.atan2(float(np.mean(np.sin(yaw))), float(np.mean(np.cos(yaw))))))
