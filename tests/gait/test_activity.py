@@ -359,6 +359,25 @@ def test_simulated_walker_whose_pitch_differs_left_and_right_keeps_the_true_cade
     assert b.cadence_spm == pytest.approx(120.0 / np.median(inside[2:] - inside[:-2]), rel=0.02)
 
 
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_a_dragged_foot_that_gives_way_to_a_normal_walk_in_one_bout_keeps_both_cadences(seed: int) -> None:
+    """The simulator's true angles of a trunk that pitches once per stride (``lr:2``): 6 s of a dragged foot
+    (~85 steps/min, the pitch repeating per step) then 12 s of a normal walk (~110, repeating per stride) without
+    a pause, one gait region. With one rhythm for the whole region the normal part's strides were taken for
+    steps and the bout had no cadence (seeds 1 and 4; unkind video right_foot_drag seed 2: 26 % slow). The bout's
+    cadence against its true contacts by the field's definition (mean of 120 / stride)."""
+    from walkmon.simulate.gait import GaitModel
+    from walkmon.simulate.scoring import truth_stride_cadence_between
+
+    m = GaitModel("lr:2,stand:2,right_foot_drag:6,normal:12,stand:2", seed=seed)
+    t = np.arange(0.0, m.duration_s, 1 / 30)
+    (b,) = segment(signals_from_angles(t, m.truth_angles_deg(t))).bouts
+    steps = m.step_times_s()[0]
+    true, _ = truth_stride_cadence_between(steps, np.zeros(steps.size, int), b.start_s, b.end_s)
+    assert b.cadence_spm == pytest.approx(true, rel=0.015)
+    assert b.end_s - b.start_s > 15.0
+
+
 @pytest.mark.parametrize("turn_deg", [0.0, 180.0])
 def test_a_step_rhythm_is_not_halved_by_a_turn_or_a_side_bend_in_step_with_the_pitch(turn_deg: float) -> None:
     """The pitch repeats per step (80 steps/min), the roll moves with it (a camera yawed on the chest) and the
@@ -663,3 +682,12 @@ def test_a_lone_step_just_after_handling_is_dropped() -> None:
     assert b.start_s == pytest.approx(3.0)
     (b,) = bouts_from_steps(steps, sig)
     assert b.start_s == pytest.approx(2.2)
+
+
+@pytest.mark.parametrize("ratio", [1.0, 0.9, 1.5, float("nan")])
+def test_a_pace_change_ratio_that_cannot_split_is_refused(ratio: float) -> None:
+    from walkmon.errors import InvalidInputError
+    from walkmon.gait.activity import ActivitySettings
+
+    with pytest.raises(InvalidInputError, match="pace_change_ratio"):
+        ActivitySettings(pace_change_ratio=ratio)

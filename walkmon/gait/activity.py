@@ -16,7 +16,9 @@ Processing (:func:`segment`):
    asymmetric gait) and strong enough (RMS in the gait band >= the source's ``min_rms``).
 2. **Steps** (initial-contact proxies): in each candidate region, the step signal low-passed at
    ``lowpass_factor`` x the region's step frequency (from the autocorrelation), one maximum per step (maxima at
-   least ``min_step_fraction`` of a step apart). The vertical acceleration peaks just after each heel strike,
+   least ``min_step_fraction`` of a step apart). From camera angles a region whose rhythm changes (by
+   ``pace_change_ratio``, a step and a stride of one rhythm counting as one; :func:`_pace_pieces`) is split
+   there first, each piece with its own rhythm. The vertical acceleration peaks just after each heel strike,
    so the maxima lag the initial contacts by a nearly constant delay: cadence and bouts are unaffected.
 3. **Walking bouts** (Mobilise-D convention, Kluge et al. 2021, PLoS ONE 16(8) e0256541 and the mobgap
    ``WbAssembly`` defaults): steps closer than ``max_break_s`` = 3 s belong to one bout (a shorter pause
@@ -131,6 +133,7 @@ class ActivitySettings:
     # camera angles: where the pitch repeats once per stride (:func:`_is_stride`), the steps are the maxima of
     # its step-frequency band, this many times the step frequency
     stride_band: tuple[float, float] = (0.7, 1.3)
+    pace_change_ratio: float = 1.2  # camera angles: a gait region splits where its rhythm changes this much
     # where the trunk's tilt spreads over more than this within reorient_window_s (outside turns), the sensor is
     # being handled or the wearer sits down, stands up or bends down: no steps there (see :func:`segment`); the
     # window is applied when the signals are made (signals_from_imu / signals_from_angles)
@@ -148,6 +151,10 @@ class ActivitySettings:
         if not (1.0 < lo < hi) or not (0.0 < self.extra_step_fraction < 1.0):
             msg = (f"missed_step_ratio must be 1 < low < high and extra_step_fraction in (0, 1), got "
                    f"{self.missed_step_ratio}, {self.extra_step_fraction}")
+            raise InvalidInputError(msg)
+        if not 1.0 < self.pace_change_ratio <= math.sqrt(2.0):
+            msg = (f"pace_change_ratio must be in (1, 1.414] (a step and a stride of one rhythm are one rhythm, so "
+                   f"two rhythms differ by at most a factor sqrt 2), got {self.pace_change_ratio}")
             raise InvalidInputError(msg)
         if int(self.min_steps) < 2:
             msg = f"min_steps must be >= 2, got {self.min_steps}"
@@ -497,6 +504,31 @@ def _is_stride(p: float, sway: NDArray[np.float64] | None, s: ActivitySettings) 
     return support
 
 
+def _pace_pieces(period: NDArray[np.float64], j0: int, j1: int, n: int, ratio: float) -> list[tuple[int, int]]:
+    """Hop ranges of the gait run [j0, j1) with one rhythm each (camera angles).
+
+    A region gets one period and one decision whether its pitch repeats per stride: a dragged-foot walk (its
+    pitch's lag the 0.74 s step) that turned into a normal one (repeating per stride, 1.1 s) in one region read
+    the normal part's strides as steps (unkind video, right_foot_drag seed 2: a bout 26 % slow). The hops'
+    periods flip between a step and a stride of one rhythm where the left and right steps pitch the trunk
+    differently, so they are compared as log2(period) on a circle (a factor 2 is no change): the run splits
+    (recursively) at the hop where the mean directions of the ``n`` hops before and the ``n`` after differ most,
+    when by ``ratio`` or more, leaving pieces of at least 1.5 ``n`` hops (three strides for the stride test)."""
+    m = max(n, int(round(1.5 * n)))
+    if j1 - j0 < 2 * m:
+        return [(j0, j1)]
+    z = np.exp(2j * np.pi * np.log2(period[j0:j1]))
+    c = np.concatenate([[0.0], np.cumsum(z)])
+    k = np.arange(m, j1 - j0 - m + 1)  # split hops (offsets): the n before and the n after each
+    left, right = c[k] - c[k - n], c[k + n] - c[k]
+    d = np.abs(np.angle(right * np.conj(left))) / (2.0 * np.pi)  # in octaves, 0-0.5
+    i = int(np.argmax(d))
+    if not d[i] >= math.log2(ratio):
+        return [(j0, j1)]
+    j = j0 + int(k[i])
+    return _pace_pieces(period, j0, j, n, ratio) + _pace_pieces(period, j, j1, n, ratio)
+
+
 def _step_lag(ac: NDArray[np.float64], lag_lo: int, lag_hi: int, fs: float) -> tuple[float, float]:
     """(periodicity, step period in s) from a normalised autocorrelation.
 
@@ -553,30 +585,39 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
     gait = (per >= s.min_periodicity) & (rms >= min_rms) & np.isfinite(period)
     steps: list[float] = []
     hop = float(tc[1] - tc[0]) if len(tc) > 1 else s.hop_s
+    n_pace = max(2, int(round(s.window_s / hop)))
     for j0, j1 in _runs(gait):
-        t0 = tc[j0] - 0.5 * s.window_s
-        t1 = tc[j1 - 1] + 0.5 * s.window_s
-        i0 = max(0, int(np.searchsorted(sig.t_s, t0)))
-        i1 = min(len(sig.t_s), int(np.searchsorted(sig.t_s, t1)))
-        if i1 - i0 < int(fs):
-            continue
-        p = float(np.nanmedian(period[j0:j1]))
-        strided = _is_stride(p, None if sway is None else sway[i0:i1], s)
-        if strided:
-            p /= 2.0
-        f = 1.0 / p
-        # a step signal that repeats once per stride has one clear maximum per stride: its step-frequency
-        # component alone (a narrow band about it) has one per step
-        band = (s.stride_band[0] * f, s.stride_band[1] * f) if strided else (0.25, s.lowpass_factor * f)
-        y = _butter(sig.step[i0:i1] - np.mean(sig.step[i0:i1]), fs, band, "band")
-        amp = np.sqrt(np.mean(y * y))
-        pk, _ = find_peaks(y, distance=max(1, int(s.min_step_fraction * p * fs)), prominence=0.5 * amp)
-        for k in pk:
-            tk = float(sig.t_s[i0 + k])
-            # keep peaks inside the candidate run proper (the window half-width at the edges is context)
-            if tc[j0] - 0.5 * s.window_s + 0.25 * p <= tk <= tc[j1 - 1] + 0.5 * s.window_s - 0.25 * p:
-                steps.append(tk)
-    del hop
+        pieces = _pace_pieces(period, j0, j1, n_pace, s.pace_change_ratio) if sway is not None else [(j0, j1)]
+        for k0, k1 in pieces:
+            # the piece's own span: a run's outer edges reach half a window out (context of the first and last
+            # hop), an edge between two pieces is the hop where the rhythm changed
+            lo = tc[k0] if k0 > j0 else tc[j0] - 0.5 * s.window_s
+            hi = tc[k1] if k1 < j1 else tc[j1 - 1] + 0.5 * s.window_s
+            i0 = max(0, int(np.searchsorted(sig.t_s, lo)))
+            i1 = min(len(sig.t_s), int(np.searchsorted(sig.t_s, hi)))
+            if i1 - i0 < int(fs):
+                continue
+            p = float(np.nanmedian(period[k0:k1]))
+            strided = _is_stride(p, None if sway is None else sway[i0:i1], s)
+            if strided:
+                p /= 2.0
+            f = 1.0 / p
+            # the filter sees half a window beyond an edge between pieces (its transient stays out of the piece)
+            c0 = max(0, int(np.searchsorted(sig.t_s, lo - 0.5 * s.window_s))) if k0 > j0 else i0
+            c1 = min(len(sig.t_s), int(np.searchsorted(sig.t_s, hi + 0.5 * s.window_s))) if k1 < j1 else i1
+            # a step signal that repeats once per stride has one clear maximum per stride: its step-frequency
+            # component alone (a narrow band about it) has one per step
+            band = (s.stride_band[0] * f, s.stride_band[1] * f) if strided else (0.25, s.lowpass_factor * f)
+            y = _butter(sig.step[c0:c1] - np.mean(sig.step[c0:c1]), fs, band, "band")
+            amp = np.sqrt(np.mean(y[i0 - c0 : i1 - c0] ** 2))
+            pk, _ = find_peaks(y, distance=max(1, int(s.min_step_fraction * p * fs)), prominence=0.5 * amp)
+            # keep peaks inside the piece proper (the window half-width at a run's edges is context)
+            keep_lo = lo + 0.25 * p if k0 == j0 else lo
+            keep_hi = hi - 0.25 * p if k1 == j1 else hi
+            for k in pk:
+                tk = float(sig.t_s[c0 + k])
+                if keep_lo <= tk <= keep_hi and (k1 == j1 or tk < keep_hi):
+                    steps.append(tk)
     st = np.unique(np.round(np.asarray(steps, dtype=float), 6))
     # two regions may overlap at their edges: merge steps closer than the shortest step
     if st.size > 1:
