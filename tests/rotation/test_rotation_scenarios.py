@@ -124,3 +124,22 @@ def test_in_fog_the_tracks_do_not_creep_and_the_pitch_does_not_drift(fog_clip, c
     err = np.array([geo.rotation_angle_deg((Rt[0].T @ Rt[i]).T @ Re[i]) for i in range(run.n)])
     assert float(np.sqrt(np.mean(err**2))) <= 0.5, float(np.sqrt(np.mean(err**2)))
     assert not (run.ok & (err > 1.0)).any(), float(err[run.ok].max())
+
+
+@pytest.fixture(scope="module")
+def night_clip(tmp_path_factory):
+    from walkmon.simulate.scenarios import simulate_scenario
+
+    return simulate_scenario(tmp_path_factory.mktemp("night"), "night", seed=3, seconds=8.0, width=640, height=480)
+
+
+@pytest.mark.slow
+def test_at_night_the_noise_is_smoothed_away_and_the_pitch_does_not_drift(night_clip, clip_run):
+    """Night: sensor noise a third of the image's contrast. Before the tracking images were smoothed there, this
+    clip (seed 3, the scenario benchmark's worst night clip) drifted to a raw RMSE of 0.81 deg of pitch with 88 ok
+    frames more than 1 deg off the simulator's truth; issue 14's target is 0.5 deg."""
+    run = clip_run(night_clip)
+    Rt, Re = run.truth, run.est
+    err = np.array([geo.rotation_angle_deg((Rt[0].T @ Rt[i]).T @ Re[i]) for i in range(run.n)])
+    assert float(np.sqrt(np.mean(err**2))) <= 0.5, float(np.sqrt(np.mean(err**2)))
+    assert not (run.ok & (err > 1.0)).any(), float(err[run.ok].max())
