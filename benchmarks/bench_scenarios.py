@@ -201,6 +201,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
     ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--first-seed", type=int, default=1,
+                    help="seeds first-seed .. first-seed + seeds - 1 (e.g. 6 for the held-out seeds 6-10)")
     ap.add_argument("--seconds", type=float, default=8.0)
     ap.add_argument("--size", default="640x480")
     ap.add_argument("--cache", default=os.environ.get("WALKMON_BENCH_CACHE", "/tmp/walkmon-bench-scenarios"))
@@ -220,7 +222,7 @@ def main(argv: list[str] | None = None) -> int:
     cache = Path(args.cache)
     rows = []
     # seed-major: every scenario's first seed before any scenario's second (an interrupted render covers them all)
-    for seed in range(1, args.seeds + 1):
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
         for sc in args.scenarios:
             d = cache / f"{sc}_{args.seconds:g}s_{size[0]}x{size[1]}_seed{seed}_sim{simulator_key()}"
             if args.cached_only and not (d / "meta.json").is_file():
@@ -252,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
         "",
         (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {platform.machine()} {os.cpu_count()} cores, "
          f"load average {os.getloadavg()[0]:.1f}, Python {platform.python_version()}, OpenCV {cv2.__version__}, one "
-         f"thread. Clips: {args.size}, {args.seconds:g} s (2 s standing at each end), 30 fps mp4, seeds 1-{args.seeds}"
+         f"thread. Clips: {args.size}, {args.seconds:g} s (2 s standing at each end), 30 fps mp4, seeds {args.first_seed}-{args.first_seed + args.seeds - 1}"
          f"{' (those rendered: --cached-only)' if args.cached_only else ''}, simulator {simulator_key()}. Camera "
          f"readout: {'each clip camera' + chr(39) + 's own (rolling_shutter 30 ms)' if args.readout_ms is None else f'{args.readout_ms:g} ms for every clip'}."
          f"{note}"),

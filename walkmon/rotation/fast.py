@@ -121,15 +121,17 @@ _REFERENCE_WIDTH_PX = 640.0
 _VEIL_RATIO = 0.4
 #: Low light: a tracking image whose noise (Immerkaer's estimate, 1996, CVIU 64(2) 300-302: the Laplacian
 #: difference mask, robust to the image's own structure) is above _NOISY_ON of its grey-level standard
-#: deviation (the signal; an SNR under ~7) is smoothed by a Gaussian of _DENOISE_SIGMA_PX at a 320 px wide
+#: deviation (the signal; an SNR under 4) is smoothed by a Gaussian of _DENOISE_SIGMA_PX at a 320 px wide
 #: tracking image before anything is done with it (corners, Lucas-Kanade, vertical lines): the image's gradients
-#: are then the scene's, not the noise's. Night (SNR ~3) drifted 0.4-0.8 deg of pitch in 8 s without it. It stays
-#: on until the ratio falls below _NOISY_OFF (no flicker between smoothed and raw pairs at the edge). Smoothing
-#: every frame cost the clear scenes dearly (a wall: raw pitch 0.9 -> 1.4 deg; fast turns, movers), so it is used
-#: only where the noise dominates. The bounds lie in the gap between the scenario clips' clear scenes (medians
-#: 0.015-0.05, dusk 0.07) and night (0.33); set from that gap, not tuned.
-_NOISY_ON = 0.15
-_NOISY_OFF = 0.10
+#: are then the scene's, not the noise's. Night (SNR ~2.5) drifted 0.4-0.8 deg of pitch in 8 s without it. It
+#: stays on until the ratio falls below _NOISY_OFF (no flicker between smoothed and raw pairs at the edge).
+#: Smoothing every frame cost the clear scenes dearly (walls: worst raw pitch 0.9 -> 1.4 deg; fast turns,
+#: movers), so it is used only where the noise dominates. The ratio is the tracking image's: a 640 px input is
+#: averaged down to it, a 320 px one is not and reads noisier (dusk 0.07-0.12 at 640, 0.09-0.21 at 320; review).
+#: The bounds lie in the gap between every clear scenario frame at either size (<= 0.21) and night (>= 0.31 at
+#: 640, 0.49 at 320); set from that gap, not tuned.
+_NOISY_ON = 0.25
+_NOISY_OFF = 0.20
 _DENOISE_SIGMA_PX = 1.0
 _NOISE_MASK = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 _HIGHPASS_BOX_PX = 21
