@@ -166,10 +166,8 @@ class FastEngine:
         # (frame, its high-passed image) of the last veiled frame tracked, reused as the next one's previous frame
         self._hp_cache: tuple[NDArray[np.uint8], NDArray[np.uint8]] | None = None
         self._hp_box = max(3, round(_HIGHPASS_BOX_PX * self._track_size[0] / _HIGHPASS_WIDTH_PX) | 1)
-        self.veiled_frames = 0  # frames tracked with the haze refinement
         self._noisy = False  # low light: the tracking images are smoothed (see _NOISY_ON)
         self._denoise_sigma = _DENOISE_SIGMA_PX * self._track_size[0] / _HIGHPASS_WIDTH_PX
-        self.denoised_frames = 0
         self._pts = np.zeros((0, 1, 2), np.float32)  # current track positions, tracking resolution
         self._kf_q = np.zeros((0, 3))  # the tracks' normalised homogeneous coordinates in the keyframe
         self._ids = np.zeros(0, np.int64)  # a number per track, to find the same track in older keyframes
@@ -622,7 +620,6 @@ class FastEngine:
             ratio = _noise_sd(small) / sd
             self._noisy = ratio > (_NOISY_OFF if self._noisy else _NOISY_ON)
         if self._noisy:
-            self.denoised_frames += 1
             smooth: NDArray[np.uint8] = cv2.GaussianBlur(small, (0, 0), self._denoise_sigma)
             return smooth
         return small
@@ -718,7 +715,6 @@ class FastEngine:
             criteria=self._criteria, flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
         )
         self._hp_cache = (small, cur_hp)
-        self.veiled_frames += 1
         return ref, ok & st.ravel().astype(bool)
 
     def _predicted_positions(self) -> NDArray[np.float32] | None:
