@@ -68,6 +68,7 @@ __all__ = [
     "Classification",
     "LABELS",
     "PostureThresholds",
+    "ROTATION_STEP_TIMES",
     "alternation",
     "classify",
 ]
@@ -75,6 +76,10 @@ __all__ = [
 _log = logging.getLogger(__name__)
 
 LABELS = ("normal", "left_shoulder_down", "right_foot_drag", "bend", "unclassified")
+
+#: The ``asymmetry`` key (value 1) that marks step times taken from the camera's rotation (the pitch's maxima):
+#: :func:`classify` does not take them as evidence that the feet's steps alternate (see ``_alternating``).
+ROTATION_STEP_TIMES = "step_times_from_rotation"
 
 
 @dataclass(frozen=True, slots=True)
@@ -227,7 +232,7 @@ def _alternating(doc: Mapping[str, Any], th: PostureThresholds) -> tuple[bool, s
     time ratio: at least ``drag_step_time_ratio`` AND significantly above 1 (the 95 % interval of the side
     difference excludes 0) over at least ``min_step_pairs`` steady-state step pairs.
     """
-    if _asym(doc, "step_times_from_rotation") == 1.0:
+    if _asym(doc, ROTATION_STEP_TIMES) == 1.0:
         # the camera's rotation alone: its pitch maxima alternate in time with a symmetric gait too (a trunk
         # pitches differently on the two steps; with the simulator's lr:1-2 they read alternate steps 1.08-1.5
         # apart on 27 of 48 normal segments), so they are no evidence that the feet's steps differ

@@ -54,6 +54,7 @@ from walkmon.gait.indicators import (
     IndicatorStatus,
     analyze_gait,
 )
+from walkmon.gait.posture import ROTATION_STEP_TIMES
 
 __all__ = [
     "DEFAULT_SESSION_SETTINGS",
@@ -688,11 +689,6 @@ def _steps_asymmetry(steps: NDArray[np.float64]) -> dict[str, float]:
             i0, i1 = max(runs, key=lambda r: r[1] - r[0])
             d = d[i0:i1]
     return alternation(d)
-
-
-#: The asymmetry key that marks step times taken from the camera's rotation (the pitch's maxima), which
-#: :func:`walkmon.gait.posture.classify` does not take as evidence that the feet's steps alternate.
-ROTATION_STEP_TIMES = "step_times_from_rotation"
 
 
 def span_indicators(
