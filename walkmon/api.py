@@ -107,8 +107,9 @@ class Analysis:
     baseline: Indicators | None = None
     reference_deg: NDArray[np.float64] | None = None
     precision: Mapping[str, int] = field(default_factory=dict)
-    #: timeline.csv rows ``(t, activity, label, pitch, roll)`` at 1 s (walkmon mode; empty in paper mode)
-    timeline: tuple[tuple[float, str, str, float, float], ...] = ()
+    #: timeline.csv rows ``(t, activity, label, pitch, roll, ref_uncertainty_deg)`` at 1 s (walkmon mode; empty in
+    #: paper mode)
+    timeline: tuple[tuple[float, str, str, float, float, float], ...] = ()
 
     @property
     def indicators(self) -> dict[str, Any]:
@@ -147,7 +148,9 @@ class Analysis:
         if angles.size and np.isnan(angles[:, 1]).all():  # accelerometer only: no yaw, drawn as flat
             angles[:, 1] = 0.0
         if "timeline" not in timeline and self.timeline:
-            cols = dict(zip(("t", "activity", "label", "pitch", "roll"), zip(*self.timeline, strict=True), strict=True))
+            from walkmon.tables import TIMELINE_COLUMNS  # noqa: PLC0415
+
+            cols = dict(zip(TIMELINE_COLUMNS, zip(*self.timeline, strict=True), strict=True))
             timeline = {"timeline": timeline_from_columns(cols),
                         "timeline_source": "Per second, from the gait analysis (activity, posture segments)."}
         return render_report(self.t_s, angles, self.gait, self.baseline, meta, settings=self.settings,
@@ -177,7 +180,9 @@ class Analysis:
             write_table(written["timeline.csv"], {
                 "t": np.array([r[0] for r in rows], dtype=float), "activity": [r[1] for r in rows],
                 "label": [r[2] for r in rows], "pitch": np.array([r[3] for r in rows], dtype=float),
-                "roll": np.array([r[4] for r in rows], dtype=float)}, precision={"t": 1, "pitch": 2, "roll": 2})
+                "roll": np.array([r[4] for r in rows], dtype=float),
+                "ref_uncertainty_deg": np.array([r[5] for r in rows], dtype=float)},
+                precision={"t": 1, "pitch": 2, "roll": 2, "ref_uncertainty_deg": 1})
         if not report:
             return written
         written["report.html"] = out / "report.html"

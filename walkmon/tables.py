@@ -31,8 +31,8 @@ if TYPE_CHECKING:
     from walkmon.imu.calibration import AccelerometerCalibration
     from walkmon.imu.recordings import ImuRecording
 
-__all__ = ["ACC_COLUMNS", "ImuFile", "imu_file_kind", "read_acc_csv", "read_accelerometer_calibration", "read_imu_csv",
-           "read_imu_file", "read_indicators", "read_table", "write_indicators", "write_table"]
+__all__ = ["ACC_COLUMNS", "TIMELINE_COLUMNS", "ImuFile", "imu_file_kind", "read_acc_csv", "read_accelerometer_calibration",
+           "read_imu_csv", "read_imu_file", "read_indicators", "read_table", "write_indicators", "write_table"]
 
 _log = logging.getLogger(__name__)
 
@@ -186,6 +186,8 @@ def read_imu_csv(path: str | Path, *, units_out: list[str] | None = None) -> Imu
 
 #: Columns of an accelerometer-only recording (a phone, a cheap accelerometer in a neck pouch).
 ACC_COLUMNS = ("t", "ax", "ay", "az")
+#: timeline.csv (the session analysis, every 1 s; see the README's file formats)
+TIMELINE_COLUMNS = ("t", "activity", "label", "pitch", "roll", "ref_uncertainty_deg")
 
 
 def imu_file_kind(path: str | Path) -> str:

@@ -46,9 +46,10 @@ def test_analyze_accelerometer_only(tmp_path: Path, capsys: pytest.CaptureFixtur
     angles = read_table(tmp_path / "out" / "angles.csv", ("t", "pitch", "roll", "pitch_abs", "roll_abs"))
     assert np.all(np.isnan(angles["yaw"]))  # no yaw without a gyroscope, said as empty values, not zeros
     timeline = (tmp_path / "out" / "timeline.csv").read_text().splitlines()
-    assert timeline[0] == "t,activity,label,pitch,roll"
+    assert timeline[0] == "t,activity,label,pitch,roll,ref_uncertainty_deg"
     rows = [r.split(",") for r in timeline[1:]]
     assert rows[1][1] == "standing" and rows[10][1] == "walking"
+    assert {float(r[5]) for r in rows} == {0.0}  # the standing start measured the sensor's tilt: nothing uncertain
     assert len(rows) == pytest.approx(26, abs=1)
 
 

@@ -321,3 +321,33 @@ def test_a_pause_mid_walk_measures_the_sensors_tilt_without_a_standing_phase() -
     assert doc["upright_reference"]["source"].startswith("first still pause")
     assert {s["label"] for s in doc["segments"]} == {"normal"}
     assert doc["axes"]["pitch"]["inclination_mean"] == pytest.approx(0.0, abs=1.5)
+
+
+@pytest.mark.parametrize("seed", [1, 4])
+def test_timeline_qualifies_a_pitch_the_turns_alone_carry(seed: int) -> None:
+    # Mid-walk to mid-walk, no standing phase: upright, then bent 15 deg, a U-turn, then upright again. Whether
+    # the trunk straightened in the turn or the camera sits tilted on it, the one turn cannot tell (the
+    # analysis withholds the labels after it). The timeline's pitch there is off by the turn's ambiguity, and
+    # its ref_uncertainty_deg column must say by how much: the simulator's true trunk pitch and roll lie within
+    # that bound (1.5 deg for the video-free truth's own sway in a 1 s mean), while before the turn, where the
+    # first frame is the reference, the column reads 0.
+    model = GaitModel("normal:8,bend:8,turn:-180,normal:14", seed=seed)
+    t, rel, truth = _mid_walk(model, 3.0, model.duration_s - 1.0)
+    res = analyze_session(t, rel)
+    (turn,) = [u for u in res.segmentation.turns if abs(u.angle_deg) > 90]
+    body = model.body_angles_deg(t + 3.0)
+    after = before = 0
+    for g, activity, label, pitch, roll, unc in res.timeline:
+        i = int(np.argmin(np.abs(t - g)))
+        if activity != "walking":
+            continue
+        if g < turn.start_s - 1.0:
+            assert unc == 0.0
+            before += 1
+        elif g > turn.end_s + 2.0:
+            assert label == "unclassified"
+            assert unc > 3.0  # more than the classifier's normal range: the pitch alone says nothing
+            err = max(abs(pitch - body[i, 0]), abs(roll - body[i, 2]))
+            assert err <= unc + 1.5, (g, pitch, body[i, 0], unc)
+            after += 1
+    assert before >= 8 and after >= 8

@@ -65,6 +65,14 @@ def test_an_offline_report_says_where_its_timeline_comes_from(tmp_path: Path) ->
     assert "walking: bent forward</td><td>1 s</td>" in html
     # walking time is the analysis's own (time in walking bouts), in minutes
     assert f"{ind.walking_s / 60:.1f} min walked" in html
+    assert "upright reference uncertain" not in html
+    # seconds whose upright reference may be off (timeline.csv's ref_uncertainty_deg) are shaded, with the bound
+    cols["ref_uncertainty_deg"] = [0.0, 0.0, 12.5, 0.4]
+    tl = timeline_from_columns(cols)
+    assert tl["hops"]["uncertainty"] == [0.0, 0.0, 12.5, 0.4]
+    html = render_report(t, a, ind, timeline=tl, timeline_source="From timeline.csv.")
+    assert html.count("upright reference uncertain by up to") == 1 and "up to 12.5 deg, 2 s - 3 s" in html
+    assert "grey: upright reference uncertain by more than 1 deg" in html
 
 
 @pytest.mark.parametrize(("since", "days"), [("30d", 30.0), ("2w", 14.0), ("12h", 0.5), ("7", 7.0)])

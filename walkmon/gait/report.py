@@ -331,7 +331,8 @@ def _kv_table(items: Mapping[str, Any]) -> str:
 
 
 def timeline_from_columns(cols: Mapping[str, Sequence[Any]], hop_s: float = 1.0) -> dict[str, Any]:
-    """The gait analysis's timeline.csv (``t,activity,label,pitch,roll`` at 1 s) in the timeline shape."""
+    """The gait analysis's timeline.csv (``t,activity,label,pitch,roll[,ref_uncertainty_deg]`` at 1 s) in the
+    timeline shape (the uncertainty as ``hops["uncertainty"]`` when the columns hold it)."""
     activity = [str(v or "") for v in cols["activity"]]
     walking = [act == "walking" for act in activity]
 
@@ -342,10 +343,12 @@ def timeline_from_columns(cols: Mapping[str, Sequence[Any]], hop_s: float = 1.0)
             return None
         return f if math.isfinite(f) else None
 
-    return {"hops": {"t_s": [float(v) for v in cols["t"]], "walking": walking, "activity": activity,
-                     "label": [str(v or "") for v in cols["label"]], "pitch": [num(v) for v in cols["pitch"]],
-                     "roll": [num(v) for v in cols["roll"]]},
-            "alerts": [], "thresholds": {}, "hop_s": hop_s}
+    hops = {"t_s": [float(v) for v in cols["t"]], "walking": walking, "activity": activity,
+            "label": [str(v or "") for v in cols["label"]], "pitch": [num(v) for v in cols["pitch"]],
+            "roll": [num(v) for v in cols["roll"]]}
+    if "ref_uncertainty_deg" in cols:
+        hops["uncertainty"] = [num(v) for v in cols["ref_uncertainty_deg"]]
+    return {"hops": hops, "alerts": [], "thresholds": {}, "hop_s": hop_s}
 
 
 def render_report_html(

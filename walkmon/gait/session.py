@@ -127,7 +127,8 @@ class SessionAnalysis:
     reference_deg: NDArray[np.float64]
     reference_source: str
     segments: tuple[dict[str, Any], ...]
-    timeline: tuple[tuple[float, str, str, float, float], ...]
+    #: timeline.csv rows ``(t, activity, label, pitch, roll, ref_uncertainty_deg)`` (:func:`timeline_rows`)
+    timeline: tuple[tuple[float, str, str, float, float, float], ...]
 
 
 def _num(v: float, nd: int = 4) -> float | None:
@@ -844,7 +845,7 @@ def analyze_session(
     asym = _weighted_asym(weighted)
     activity_s = {k: float(np.sum(activity == k)) * activity_settings.hop_s
                   for k in ("standing", "walking", "turning", "unknown")}
-    rows = timeline_rows(t, a, seg, seg_docs, ref_zero)
+    rows = timeline_rows(t, a, seg, seg_docs, ref_zero, unc=unc)
     status = IndicatorStatus.OK if weighted and any(i.status is IndicatorStatus.OK for _, i in weighted) else (
         IndicatorStatus.NO_GAIT if seg.bouts or t.size > 16 else IndicatorStatus.TOO_SHORT)
     session = {
@@ -1326,21 +1327,29 @@ def _weighted_asym(items: list[tuple[float, Indicators]]) -> dict[str, float]:
 
 def timeline_rows(
     t: NDArray, a: NDArray, seg: Segmentation, seg_docs: list[dict[str, Any]], ref: NDArray,
-    abs_deg: NDArray | None = None, step_s: float = 1.0,
-) -> tuple[tuple[float, str, str, float, float], ...]:
-    """``(t, activity, label, pitch, roll)`` every ``step_s`` from the first sample: pitch and roll relative to
-    the upright reference (1 s means); label only for walking seconds inside a posture segment."""
+    abs_deg: NDArray | None = None, step_s: float = 1.0, unc: ReferenceUncertainty | None = None,
+) -> tuple[tuple[float, str, str, float, float, float], ...]:
+    """``(t, activity, label, pitch, roll, ref_uncertainty_deg)`` every ``step_s`` from the first sample: pitch
+    and roll relative to the upright reference (1 s means); label only for walking seconds inside a posture
+    segment; how far that reference may be off there (``unc``: the larger of its pitch and roll bounds, the
+    largest over the second; 0 where nothing bounds it away from the measured reference, e.g. a standing phase
+    in the same straight stretch). Without it a pitch read after a turn, where only the turns could carry the
+    reference, looked as certain as one next to a standing phase (a walker who straightened up inside the only
+    turn read 14 deg bent for 25 s of upright walking, its labels withheld but its pitch column not qualified)."""
     if t.size == 0:
         return ()
     grid = np.arange(0.0, float(t[-1] - t[0]) + 1e-9, step_s) + float(t[0])
     act = seg.activity_at(grid)
+    bound = np.zeros(t.size) if unc is None else np.max(np.asarray(unc.deg, dtype=float), axis=1)
     rows = []
     for g, ac in zip(grid, act, strict=True):
         m = (t >= g - 0.5 * step_s) & (t < g + 0.5 * step_s)
         if m.any():
             pr = np.mean(a[m][:, [0, 2]], axis=0) - ref[[0, 2]]
+            u = float(np.max(bound[m]))
         else:
             pr = np.array([np.interp(g, t, a[:, 0]) - ref[0], np.interp(g, t, a[:, 2]) - ref[2]])
+            u = float(np.interp(g, t, bound))
         label = ""
         if ac == "walking":
             label = "unclassified"
@@ -1348,5 +1357,5 @@ def timeline_rows(
                 if d["start_s"] is not None and d["start_s"] <= g <= d["end_s"]:
                     label = d["label"]
                     break
-        rows.append((float(g), str(ac), label, float(pr[0]), float(pr[1])))
+        rows.append((float(g), str(ac), label, float(pr[0]), float(pr[1]), u))
     return tuple(rows)

@@ -23,6 +23,9 @@ LABEL_COLORS = {
 }
 ACTIVITY_COLORS = {"standing": "#DDDDDD", "not walking": "#DDDDDD", "turning": "#56B4E9", "unknown": "#BBBBBB"}
 _PITCH, _ROLL, _TEXT, _GRID = "#0072B2", "#D55E00", "#222222", "#BBBBBB"
+#: The timeline shades the seconds whose upright reference may be off by more than this (deg): about what the
+#: video's own orientation error reaches over a long straight walk, below which shading would mark every turn.
+UNCERTAIN_SHADE_DEG = 1.0
 
 
 def legend(tl: dict[str, Any]) -> list[tuple[str, str]]:
@@ -172,6 +175,22 @@ def timeline_svg(tl: dict[str, Any], *, width: int = 900, title: str = "Session 
                    f'height="{band_h}" fill="{color}"><title>{escape(state)}: {_fmt_t(a)} - {_fmt_t(b)}'
                    f'</title></rect>')
     out.append(f'<text x="{left - 4}" y="{top + 13}" text-anchor="end" font-size="11" fill="{_TEXT}">posture</text>')
+    # seconds whose upright reference may be off (the gait analysis's ref_uncertainty_deg): shaded across both
+    # panels, so that a pitch read after a turn without a standing phase is not taken at face value
+    unc = hops.get("uncertainty") or []
+    shaded: list[tuple[float, float, float]] = []
+    for ti, u in zip(t, unc, strict=False):
+        if u is None or not u > UNCERTAIN_SHADE_DEG:
+            continue
+        if shaded and abs(shaded[-1][1] - (ti - hop_s)) < 1.5 * hop_s:
+            shaded[-1] = (shaded[-1][0], ti, max(shaded[-1][2], float(u)))
+        else:
+            shaded.append((ti - hop_s, ti, float(u)))
+    for a, b, u in shaded:
+        out.append(f'<rect x="{pp.x(a):.1f}" y="{pp.y0}" width="{max(0.5, pp.x(b) - pp.x(a)):.1f}" '
+                   f'height="{rp.y0 + rp.h - pp.y0}" fill="#000000" fill-opacity="0.08"><title>upright reference '
+                   f'uncertain by up to {u:.1f} deg, {_fmt_t(a)} - {_fmt_t(b)}: pitch and roll may be off by as much'
+                   f'</title></rect>')
     # pitch panel
     out.append(pp.frame("pitch [deg]", _ticks(*p_lim, n=4)))
     out.append(pp.hline(-lean, _PITCH, f"lean-forward alert at {-lean:g} deg"))
@@ -200,6 +219,9 @@ def timeline_svg(tl: dict[str, Any], *, width: int = 900, title: str = "Session 
                    f'{_fmt_t(v)}</text>')
     out.append(f'<text x="{left + pw / 2}" y="{yb + 32}" text-anchor="middle" font-size="12" fill="{_TEXT}">'
                f'time since the session started</text>')
+    if shaded:
+        out.append(f'<text x="{left + pw}" y="{yb + 32}" text-anchor="end" font-size="10" fill="{_TEXT}">'
+                   f'grey: upright reference uncertain by more than {UNCERTAIN_SHADE_DEG:g} deg</text>')
     out.append("</svg>")
     return Markup("".join(out))
 
