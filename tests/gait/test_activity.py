@@ -442,8 +442,9 @@ def test_mobilise_d_straight_walk_steps_are_the_references_initial_contacts(pid:
     """Real data (Mobilise-D consortium, mobgap example data, Apache-2.0), Test5 straight walks, lower back: every
     initial contact the reference times (INDIP; Stereophoto for HA/002, which has no INDIP bout) is one detected
     step within 0.25 s (half the shortest step), no detected step inside the bout is left over, and the timing
-    error averages under 0.1 s (MS/001 steps unevenly: 0.35 s and 0.9 s in turn). A cadence can be right with
-    a missed and an extra step cancelling; this cannot."""
+    error averages under 0.1 s. A cadence can be right with a missed and an extra step cancelling; this cannot.
+    MS/001 steps unevenly (0.35 s and 0.9 s in turn on Trial1); walkmon's steps are even, so they do not resolve
+    that limp (half of it is their error here), but an even grid alone would be 0.33 s off on Trial1 (review)."""
     import scipy.io as sio
 
     m = sio.loadmat(DATA / "mobgap" / "lab" / pid / "data.mat", squeeze_me=True, struct_as_record=False)

@@ -323,31 +323,34 @@ def test_a_pause_mid_walk_measures_the_sensors_tilt_without_a_standing_phase() -
     assert doc["axes"]["pitch"]["inclination_mean"] == pytest.approx(0.0, abs=1.5)
 
 
-@pytest.mark.parametrize("seed", [1, 4])
-def test_timeline_qualifies_a_pitch_the_turns_alone_carry(seed: int) -> None:
+def test_timeline_qualifies_a_pitch_the_turns_alone_carry() -> None:
     # Mid-walk to mid-walk, no standing phase: upright, then bent 15 deg, a U-turn, then upright again. Whether
     # the trunk straightened in the turn or the camera sits tilted on it, the one turn cannot tell (the
     # analysis withholds the labels after it). The timeline's pitch there is off by the turn's ambiguity, and
-    # its ref_uncertainty_deg column must say by how much: the simulator's true trunk pitch and roll lie within
-    # that bound (1.5 deg for the video-free truth's own sway in a 1 s mean), while before the turn, where the
-    # first frame is the reference, the column reads 0.
-    model = GaitModel("normal:8,bend:8,turn:-180,normal:14", seed=seed)
-    t, rel, truth = _mid_walk(model, 3.0, model.duration_s - 1.0)
-    res = analyze_session(t, rel)
-    (turn,) = [u for u in res.segmentation.turns if abs(u.angle_deg) > 90]
-    body = model.body_angles_deg(t + 3.0)
-    after = before = 0
-    for g, activity, label, pitch, roll, unc in res.timeline:
-        i = int(np.argmin(np.abs(t - g)))
-        if activity != "walking":
-            continue
-        if g < turn.start_s - 1.0:
-            assert unc == 0.0
-            before += 1
-        elif g > turn.end_s + 2.0:
-            assert label == "unclassified"
-            assert unc > 3.0  # more than the classifier's normal range: the pitch alone says nothing
-            err = max(abs(pitch - body[i, 0]), abs(roll - body[i, 2]))
-            assert err <= unc + 1.5, (g, pitch, body[i, 0], unc)
-            after += 1
-    assert before >= 8 and after >= 8
+    # its ref_uncertainty_deg column says by about how much: on 10 seeds the true trunk pitch and roll (1 s
+    # means, as the column's) lie within that bound plus 2 deg, the error of the reference itself (the first
+    # frame, assumed upright, catches the walk's sway: up to 3 deg before the turn on 30 seeds, where the column
+    # reads 0; after the turn 77 % of the seconds lie within the bound alone, all but 0.3 % within it plus 1.5).
+    worst = -np.inf
+    for seed in range(10):
+        model = GaitModel("normal:8,bend:8,turn:-180,normal:14", seed=seed)
+        t, rel, _ = _mid_walk(model, 3.0, model.duration_s - 1.0)
+        res = analyze_session(t, rel)
+        (turn,) = [u for u in res.segmentation.turns if abs(u.angle_deg) > 90]
+        body = model.body_angles_deg(t + 3.0)
+        after = before = 0
+        for g, activity, label, pitch, roll, unc in res.timeline:
+            if activity != "walking":
+                continue
+            m = (t >= g - 0.5) & (t < g + 0.5)
+            if g < turn.start_s - 1.0:
+                assert unc == 0.0
+                before += 1
+            elif g > turn.end_s + 2.0:
+                assert label == "unclassified"
+                assert unc > 3.0  # more than the classifier's normal range: the pitch alone says nothing
+                err = max(abs(pitch - body[m, 0].mean()), abs(roll - body[m, 2].mean()))
+                worst = max(worst, err - unc)
+                after += 1
+        assert before >= 8 and after >= 8, seed
+    assert worst <= 2.0

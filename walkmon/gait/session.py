@@ -1331,11 +1331,13 @@ def timeline_rows(
 ) -> tuple[tuple[float, str, str, float, float, float], ...]:
     """``(t, activity, label, pitch, roll, ref_uncertainty_deg)`` every ``step_s`` from the first sample: pitch
     and roll relative to the upright reference (1 s means); label only for walking seconds inside a posture
-    segment; how far that reference may be off there (``unc``: the larger of its pitch and roll bounds, the
-    largest over the second; 0 where nothing bounds it away from the measured reference, e.g. a standing phase
-    in the same straight stretch). Without it a pitch read after a turn, where only the turns could carry the
-    reference, looked as certain as one next to a standing phase (a walker who straightened up inside the only
-    turn read 14 deg bent for 25 s of upright walking, its labels withheld but its pitch column not qualified)."""
+    segment; the part of that reference's possible error the analysis bounds there (``unc``: the larger of its
+    pitch and roll bounds, the largest over the second): what turns without a standing phase carried into it, or
+    an unmeasured sensor tilt; 0 where none of that applies, which leaves the reference's own error (a stance or
+    an assumed-upright first frame: a few degrees). Without it a pitch read after a turn, where only the turns
+    could carry the reference, looked as certain as one next to a standing phase (a walker who straightened up
+    inside the only turn read 14 deg bent for 25 s of upright walking, its labels withheld but its pitch column
+    not qualified)."""
     if t.size == 0:
         return ()
     grid = np.arange(0.0, float(t[-1] - t[0]) + 1e-9, step_s) + float(t[0])

@@ -182,7 +182,7 @@ def timeline_svg(tl: dict[str, Any], *, width: int = 900, title: str = "Session 
     for ti, u in zip(t, unc, strict=False):
         if u is None or not u > UNCERTAIN_SHADE_DEG:
             continue
-        if shaded and abs(shaded[-1][1] - (ti - hop_s)) < 1.5 * hop_s:
+        if shaded and abs(shaded[-1][1] - (ti - hop_s)) < 0.5 * hop_s:  # the next second: one band
             shaded[-1] = (shaded[-1][0], ti, max(shaded[-1][2], float(u)))
         else:
             shaded.append((ti - hop_s, ti, float(u)))
