@@ -177,10 +177,10 @@ def _summary(rows: list[dict]) -> tuple[list[str], dict]:
         ws = [r["session_walking_s"] for r in rs]
         labels = ", ".join(sorted({r["session_label"] for r in rs if r["session_label"] != walk}))
         summary[walk].update({"session_max_cadence_err_realised_pct": cad, "session_classified_right": ok,
-                              "session_classified_right_with_baseline": okb})
+                              "session_classified_right_with_baseline": okb if normals_present else None})
         lines.append(f"| {walk} | {len(rs)} | {cad:.2f} ({'met' if cad <= 1.0 else 'NOT met'}) | "
                      f"{min(ws):.1f}-{max(ws):.1f} | {ok}/{len(rs)}{f' (others: {labels})' if labels else ''} | "
-                     f"{okb}/{len(rs)} |")
+                     f"{okb if normals_present else 'n/a'}/{len(rs)} |")
     return lines, summary
 
 
