@@ -148,14 +148,14 @@ def _summary(rows: list[dict]) -> tuple[list[str], dict]:
         summary[walk] = {"runs": len(rs), "max_cadence_err_nominal_pct": cad_n, "max_cadence_err_realised_pct": cad_r,
                          "max_truth_cadence_err_nominal_pct": cad_t,
                          "max_swing_err_pct": sw, "max_incl_err_deg": inc, "classified_right": ok,
-                         "classified_right_with_baseline": okb}
+                         "classified_right_with_baseline": okb if normals_present else None}
 
         def mark(value: float, target: float) -> str:
             return f"{value:.2f} ({'met' if value <= target else 'NOT met'})"
 
         lines.append(
             f"| {walk} | {len(rs)} | {mark(cad_n, 1.0)} | {cad_t:.2f} | {mark(cad_r, 1.0)} | {mark(sw, 10.0)} | "
-            f"{mark(inc, 0.5)} | {ok}/{len(rs)} | {okb if normals_present else 'n/a'}/{len(rs)} |"
+            f"{mark(inc, 0.5)} | {ok}/{len(rs)} | {f'{okb}/{len(rs)}' if normals_present else 'n/a'} |"
         )
     lines += [
         "",
@@ -180,7 +180,7 @@ def _summary(rows: list[dict]) -> tuple[list[str], dict]:
                               "session_classified_right_with_baseline": okb if normals_present else None})
         lines.append(f"| {walk} | {len(rs)} | {cad:.2f} ({'met' if cad <= 1.0 else 'NOT met'}) | "
                      f"{min(ws):.1f}-{max(ws):.1f} | {ok}/{len(rs)}{f' (others: {labels})' if labels else ''} | "
-                     f"{okb if normals_present else 'n/a'}/{len(rs)} |")
+                     f"{f'{okb}/{len(rs)}' if normals_present else 'n/a'} |")
     return lines, summary
 
 
