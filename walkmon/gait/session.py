@@ -7,7 +7,8 @@
    (pitch rhythm, yaw rate).
 2. **Upright reference**, in this order: the first standing phase (>= ``min_standing_s``) anywhere in the
    recording, gravity-referenced when an IMU gave absolute pitch/roll; without a standing phase, gravity itself
-   (IMU: the sensor is then assumed to sit level on the trunk); else the first frame. ``upright_reference``
+   (IMU: the sensor is then assumed to sit level on the trunk); else the first stride's median pose
+   (``first_pose_s``). ``upright_reference``
    in the output says which. **Gravity's direction** comes from the IMU, or for video from the axes of the
    wearer's turns (:func:`vertical_from_turns`: a chest camera is rarely level on the trunk, and its tilt reads
    as posture after a turn otherwise); with it the angles are re-expressed in a level frame riding with the
@@ -97,6 +98,8 @@ class SessionSettings:
     pause_factor: float = 1.3
     turn_reference_deg: float = 4.0
     min_anchor_s: float = 0.5  # a still phase this long re-references the video's drift (as a pause in a bout)
+    #: without any stance, the median pose over this many seconds from the start is taken for upright (a stride)
+    first_pose_s: float = 1.2
     #: How far a body-worn sensor's tilt on the trunk may be from level when nothing measured it (no standing
     #: phase, no baseline, no live calibration): gravity is then the reference with the sensor assumed level, and
     #: a label only given when it holds for any mounting tilt within this. Set a priori: a neck-hung camera hangs
@@ -413,6 +416,14 @@ def _upright(
         ok = np.isfinite(abs_deg).all(axis=1)
         off = np.median(a[ok][:, [0, 2]] - abs_deg[ok], axis=0)
         return np.array([off[0], 0.0, off[1]]), "gravity (IMU; no standing phase: the sensor is assumed level)", None
+    # no stance at all: the first stride is taken for upright. Its median pose, not the first frame's: a walk
+    # recorded from mid-stride caught the trunk at some phase of its sway, and every later inclination carried it
+    # (on 30 simulated mid-walk starts the timeline's upright stretch read up to 3.0 deg off, median 1.0; over the
+    # first s.first_pose_s: 1.2 and 0.36, the window the turns' axes use for the same reason)
+    m = t <= t[0] + s.first_pose_s if t.size else np.zeros(0, bool)
+    if m.sum() >= 3:
+        return (np.median(a[m], axis=0), f"first {s.first_pose_s:g} s (no standing phase and no IMU: assumed "
+                "upright, the median pose over about a stride)", None)
     return np.zeros(3), "first frame (no standing phase and no IMU: assumed upright)", None
 
 
@@ -482,7 +493,7 @@ def _reference_model(
     held. A stretch without a standing phase is reached from the nearest re-referenced stretches through n turns,
     each of which may add up to ``turn_reference_deg``: from one side its drift is that side's, within
     +-n x ``turn_reference_deg``; from both, the middle of the two intervals' overlap, within half of it.
-    Without any standing phase the first frame is the reference (assumed upright) for the first stretch only.
+    Without any standing phase the first stride is the reference (assumed upright) for the first stretch only.
     ``vertical_deg``: how uncertain gravity's direction is (:func:`_vertical_uncertainty`); after a turn it reads
     as up to twice itself in the tilt, so each turn's bound becomes ``hypot(turn_reference_deg, 2 vertical_deg)``.
     Returns the drift (N, 2), the uncertainty and how many standing phases re-referenced the angles."""
@@ -1334,7 +1345,7 @@ def timeline_rows(
     segment; the part of that reference's possible error the analysis bounds there (``unc``: the larger of its
     pitch and roll bounds, the largest over the second): what turns without a standing phase carried into it, or
     an unmeasured sensor tilt; 0 where none of that applies, which leaves the reference's own error (a stance or
-    an assumed-upright first frame: a few degrees). Without it a pitch read after a turn, where only the turns
+    an assumed-upright first stride: a degree or so). Without it a pitch read after a turn, where only the turns
     could carry the reference, looked as certain as one next to a standing phase (a walker who straightened up
     inside the only turn read 14 deg bent for 25 s of upright walking, its labels withheld but its pitch column
     not qualified)."""
