@@ -100,6 +100,9 @@ class SessionSettings:
     min_anchor_s: float = 0.5  # a still phase this long re-references the video's drift (as a pause in a bout)
     #: without any stance, the median pose over this many seconds from the start is taken for upright (a stride)
     first_pose_s: float = 1.2
+    #: ... when its pitch and roll each span at most this (deg) and nothing in it is handled: a stride's sway (a
+    #: dragged foot's up to 13 on the simulator), not a bend (a pick-up: 28 and more) or a handled camera
+    first_pose_max_range_deg: float = 15.0
     #: How far a body-worn sensor's tilt on the trunk may be from level when nothing measured it (no standing
     #: phase, no baseline, no live calibration): gravity is then the reference with the sensor assumed level, and
     #: a label only given when it holds for any mounting tilt within this. Set a priori: a neck-hung camera hangs
@@ -390,7 +393,7 @@ def _upright(
     walking_tilt = np.median(tilt[ok], axis=0) if ok.sum() >= 3 else None
     # standing phases (>= min_standing_s) first; without one, with an IMU, a still pause (>= min_anchor_s, outside
     # turns: the still part of a 1.5-2.5 s pause inside a bout lasts 0.5-1.5 s) is the wearer's upright stance
-    # too, and measures the sensor's tilt on the trunk. (Video keeps its first frame there, and its later pauses
+    # too, and measures the sensor's tilt on the trunk. (Video keeps its first stride there, and its later pauses
     # re-reference drift from it: taking the first pause instead left the stretch before it uncertain and cost one
     # change point on the unkind sessions, normal seed 5.)
     pauses: list[tuple[int, int, float, str]] = [(i0, i1, s.min_standing_s, "standing phase") for i0, i1 in runs]
@@ -419,9 +422,17 @@ def _upright(
     # no stance at all: the first stride is taken for upright. Its median pose, not the first frame's: a walk
     # recorded from mid-stride caught the trunk at some phase of its sway, and every later inclination carried it
     # (on 30 simulated mid-walk starts the timeline's upright stretch read up to 3.0 deg off, median 1.0; over the
-    # first s.first_pose_s: 1.2 and 0.36, the window the turns' axes use for the same reason)
+    # first s.first_pose_s: 1.3 and 0.37, the window the turns' axes use for the same reason)
+    # Only where that stride is a stride: a recording that starts as the wearer bends down or handles the camera
+    # moves the trunk by tens of degrees in it, and its median would be the bend (review: a pick-up start read
+    # 37.6 deg off, a handled camera 11.9, against 1.4 and 0.75 from the first frame): then the first frame. The
+    # range alone at 10 deg also refused a dragged foot's sway (up to 13 deg; its worst 1.8 -> 7.5 deg); at 15 it
+    # let part of a handling through (4.0 against 0.75), which the segmentation's handled samples catch.
     m = t <= t[0] + s.first_pose_s if t.size else np.zeros(0, bool)
-    if m.sum() >= 3:
+    grid = np.asarray(seg.timeline_t_s, dtype=float)
+    handled = (len(seg.handled) == grid.size and t.size > 0
+               and bool(np.any(np.asarray(seg.handled, dtype=bool) & (grid <= t[0] + s.first_pose_s))))
+    if m.sum() >= 3 and not handled and float(np.max(np.ptp(a[m][:, [0, 2]], axis=0))) <= s.first_pose_max_range_deg:
         return (np.median(a[m], axis=0), f"first {s.first_pose_s:g} s (no standing phase and no IMU: assumed "
                 "upright, the median pose over about a stride)", None)
     return np.zeros(3), "first frame (no standing phase and no IMU: assumed upright)", None
