@@ -426,8 +426,9 @@ def _upright(
     # Only where that stride is a stride: a recording that starts as the wearer bends down or handles the camera
     # moves the trunk by tens of degrees in it, and its median would be the bend (review: a pick-up start read
     # 37.6 deg off, a handled camera 11.9, against 1.4 and 0.75 from the first frame): then the first frame. The
-    # range alone at 10 deg also refused a dragged foot's sway (up to 13 deg; its worst 1.8 -> 7.5 deg); at 15 it
-    # let part of a handling through (4.0 against 0.75), which the segmentation's handled samples catch.
+    # range at 10 deg also refused a dragged foot's sway (up to 13 deg; its worst 1.8 -> 7.5 deg). At 15, with the
+    # handled samples left out, one simulated camera-handling start that the segmentation does not call handled
+    # still slips through (4.0 deg worst against 0.75 from the first frame; the README says so).
     m = t <= t[0] + s.first_pose_s if t.size else np.zeros(0, bool)
     grid = np.asarray(seg.timeline_t_s, dtype=float)
     handled = (len(seg.handled) == grid.size and t.size > 0
