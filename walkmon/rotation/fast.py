@@ -111,7 +111,7 @@ _REFERENCE_WIDTH_PX = 640.0
 #: Haze (fog, mist): a frame is veiled when its darkest 1 % of pixels are at least this fraction of its brightest
 #: 1 % (the airlight brightens everything, nothing is dark: the dark channel prior of He et al. 2009, CVPR, on a
 #: grey image). In a veiled frame Lucas-Kanade's tracks are refined, at the finest level, on both images less
-#: their local mean (a _HIGHPASS_BOX_PX box on a tracking image _HIGHPASS_WIDTH_PX wide, times _HIGHPASS_GAIN):
+#: their local mean (a _HIGHPASS_BOX_PX box on a tracking image _FILTER_WIDTH_PX wide, times _HIGHPASS_GAIN):
 #: a patch's fog fraction changes along the depth it spans as the walker approaches, which breaks brightness
 #: constancy; fog seed 5's tracks crept a median 0.4 px upwards in 10 frames (against the renderer's depth), a
 #: pitch drift of 1 deg in 8 s. Used on every frame, the refinement moved the clips of fast turns and crossing
@@ -141,8 +141,9 @@ _NOISY_OFF = 0.20
 _DENOISE_SIGMA_PX = 1.0
 _NOISE_MASK = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float32)
 _HIGHPASS_BOX_PX = 21
-_HIGHPASS_WIDTH_PX = 320.0
 _HIGHPASS_GAIN = 2.0
+#: The tracking-image width that _HIGHPASS_BOX_PX and _DENOISE_SIGMA_PX are given for; both scale with it.
+_FILTER_WIDTH_PX = 320.0
 
 
 class FastEngine:
@@ -171,9 +172,9 @@ class FastEngine:
         self._prev_small: NDArray[np.uint8] | None = None
         # (frame, its high-passed image) of the last veiled frame tracked, reused as the next one's previous frame
         self._hp_cache: tuple[NDArray[np.uint8], NDArray[np.uint8]] | None = None
-        self._hp_box = max(3, round(_HIGHPASS_BOX_PX * self._track_size[0] / _HIGHPASS_WIDTH_PX) | 1)
+        self._hp_box = max(3, round(_HIGHPASS_BOX_PX * self._track_size[0] / _FILTER_WIDTH_PX) | 1)
         self._noisy = False  # low light: the tracking images are smoothed (see _NOISY_ON)
-        self._denoise_sigma = _DENOISE_SIGMA_PX * self._track_size[0] / _HIGHPASS_WIDTH_PX
+        self._denoise_sigma = _DENOISE_SIGMA_PX * self._track_size[0] / _FILTER_WIDTH_PX
         self._pts = np.zeros((0, 1, 2), np.float32)  # current track positions, tracking resolution
         self._kf_q = np.zeros((0, 3))  # the tracks' normalised homogeneous coordinates in the keyframe
         self._ids = np.zeros(0, np.int64)  # a number per track, to find the same track in older keyframes
