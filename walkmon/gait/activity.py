@@ -269,46 +269,59 @@ def _butter(x: NDArray[np.float64], fs: float, cutoff: float | tuple[float, floa
 
 
 #: a recording sampled faster than the analysis rate is low-passed at this fraction of the analysis rate before it
-#: is resampled (anti-aliasing; see :func:`_resample`)
+#: is decimated to it (anti-aliasing; see :func:`_resample`)
 _ANTI_ALIAS_FRACTION = 0.4
-#: input intervals longer than this x the median are gaps (dropped samples): bridged linearly, not by the spline
-_GAP_FACTOR = 3.0
+#: intervals longer than this x the mean sample interval are gaps (dropped samples), left out of the input's rate
+_GAP_FACTOR = 10.0
+
+
+def _input_rate_hz(t: NDArray[np.float64]) -> float:
+    """A recording's sampling rate: one over its mean sample interval, gaps left out. The mean, not the median:
+    a logger that stamps samples as they arrive in bursts (1, 1, 28 ms) samples at 100 Hz, not 1000."""
+    dt = np.diff(t)
+    mean = float(np.mean(dt))
+    kept = dt[dt <= _GAP_FACTOR * mean]
+    return 1.0 / float(np.mean(kept)) if kept.size else 1.0 / mean
 
 
 def _resample(t: NDArray[np.float64], x: NDArray[np.float64], rate_hz: float) -> tuple[NDArray, NDArray]:
     """``x`` (N, ...) sampled at times ``t`` on a uniform grid at ``rate_hz``: ``(grid, values)``.
 
     The same walk must read the same whatever rate its sensor sampled it at. Decimated by interpolation alone, a
-    100 Hz recording folded its heel strikes' 25-50 Hz content into the gait band (no anti-aliasing), and a 60 Hz
-    one, interpolated linearly between samples a sixtieth of a second apart, lost and modulated its 10-25 Hz
-    content: a Mobilise-D course resampled from its 100 Hz to 50, 60, 128 and 200 Hz (band-limited, scipy's
-    resample_poly) gave bouts whose cadences differed by up to 8 % (and one 63 steps/min or none). So a
-    recording faster than ``rate_hz`` is low-passed first (4th-order Butterworth, zero phase, at
-    ``_ANTI_ALIAS_FRACTION`` x ``rate_hz``, 20 Hz: well above the gait band) and then interpolated by a cubic
-    spline, the band-limited signal's better reconstruction; the five rates then give the same bouts and
-    cadences within 0.4 steps/min. A slower recording (a camera's 30 frames/s) and gaps in a faster one (intervals
-    over ``_GAP_FACTOR`` x the median: dropped samples) are interpolated linearly, as before."""
+    100 Hz recording folded its heel strikes' 25-50 Hz content into the gait band (no anti-aliasing: a floor
+    vibrating at 48 Hz read as walking at 120 steps/min), and a 60 Hz one, interpolated linearly straight onto
+    the 50 Hz grid, folded the images of its 10-25 Hz content there: a Mobilise-D course resampled from its
+    100 Hz to 50, 60, 128 and 200 Hz (band-limited, scipy's resample_poly) gave bouts whose cadences differed by
+    up to 8 % (and one 63 steps/min or none). So a recording faster than ``rate_hz`` is interpolated linearly
+    onto a uniform grid k times finer than ``rate_hz`` and at least as fine as the recording (gaps bridged by a
+    straight line, as before), low-passed there (4th-order Butterworth, zero phase, at
+    ``_ANTI_ALIAS_FRACTION`` x ``rate_hz``, 20 Hz: well above the gait band) and decimated by k; k is one more
+    such that the fine grid is at least twice the input rate: the linear interpolation's images of the input's
+    content (at the input rate +- up to half of it) then stay above the filter's cut-off on the fine grid
+    instead of folding into the gait band (with a grid only 50 Hz above the input rate, a 48 Hz vibration in
+    a 100 Hz recording folded to 2 Hz there). (A cubic spline straight onto the grid reconstructed as well but
+    took 300 MB for an hour at 200 Hz and was fooled by timestamps that arrive in bursts; this takes about 3 s
+    and 100 MB.) On HA/002's course the five rates then give the same bouts (edges within 0.02 s, cadences
+    within 0.4 %); on MS/001's the recording and its 128 and 200 Hz versions give the same bouts, at 50 Hz the
+    last bout starts 2.8 s later and at 60 Hz the 45-57 s bout reads 63 steps/min where the others have none
+    (a signal difference of about 1 % flips them: the segmentation's sensitivity, see bench_real_gait.py's
+    spread table). A slower recording (a
+    camera's 30 frames/s) is interpolated linearly, as before; a fast camera's angles (an action camera at
+    60-240 frames/s) take the same path as an IMU."""
     n = int(math.floor((t[-1] - t[0]) * rate_hz)) + 1
     grid = t[0] + np.arange(n) / rate_hz
     x2 = x.reshape(len(t), -1)
-    linear = np.column_stack([np.interp(grid, t, x2[:, k]) for k in range(x2.shape[1])])
-    dt = np.diff(t)
-    fs_in = 1.0 / float(np.median(dt))
-    if fs_in <= 1.05 * rate_hz or len(t) < 32:
-        return grid, linear.reshape((n, *x.shape[1:]))
+    fs_in = _input_rate_hz(t) if len(t) > 1 else rate_hz
+    if fs_in <= 1.05 * rate_hz or n < 32:
+        out = np.column_stack([np.interp(grid, t, x2[:, c]) for c in range(x2.shape[1])])
+        return grid, out.reshape((n, *x.shape[1:]))
     from scipy import signal
-    from scipy.interpolate import CubicSpline
 
-    sos = signal.butter(4, _ANTI_ALIAS_FRACTION * rate_hz, btype="low", fs=fs_in, output="sos")
-    smooth = signal.sosfiltfilt(sos, x2, axis=0)
-    out = CubicSpline(t, smooth, axis=0)(grid)
-    gaps = np.flatnonzero(dt > _GAP_FACTOR / fs_in)
-    if gaps.size:
-        # grid points inside a gap: the (low-passed) samples either side joined by a straight line
-        k = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 2)
-        inside = np.isin(k, gaps)
-        if inside.any():
-            out[inside] = np.column_stack([np.interp(grid[inside], t, smooth[:, c]) for c in range(smooth.shape[1])])
+    k = max(2, int(math.ceil(2.0 * fs_in / rate_hz)))
+    fine = t[0] + np.arange((n - 1) * k + 1) / (rate_hz * k)
+    sos = signal.butter(4, _ANTI_ALIAS_FRACTION * rate_hz, btype="low", fs=rate_hz * k, output="sos")
+    # one column at a time: an hour at 200 Hz is 1.4 million fine samples a column
+    out = np.column_stack([signal.sosfiltfilt(sos, np.interp(fine, t, x2[:, c]))[::k] for c in range(x2.shape[1])])
     return grid, out.reshape((n, *x.shape[1:]))
 
 
@@ -416,14 +429,15 @@ def signals_from_angles(
     from scipy.ndimage import median_filter
 
     smooth = [without_jumps(t, a[:, c]) for c in (0, 2)]  # pitch, roll
-    pitch = np.interp(grid, t, smooth[0])
+    pitch = _resample(t, smooth[0], settings.rate_hz)[1]  # anti-aliased from a fast action camera's frame rate
     step = pitch - median_filter(pitch, size=max(3, int(settings.rate_hz)), mode="nearest")
     # the tilt's change: of pitch and roll (about the start's vertical, so a turn changes them only by the
     # camera's own tilt; :func:`segment` leaves turns out of the handling rule), without the estimate's one-frame
     # corrections and single-frame glitches (a running median over ~0.1 s: 3 frames at 30 fps)
     fps = (t.size - 1) / max(float(t[-1] - t[0]), 1e-9)
     glitch = max(3, int(round(0.1 * fps)) | 1)
-    tilt = np.column_stack([np.interp(grid, t, median_filter(x, size=glitch, mode="nearest")) for x in smooth])
+    tilt = np.column_stack([_resample(t, median_filter(x, size=glitch, mode="nearest"), settings.rate_hz)[1]
+                            for x in smooth])
     change = _window_range(tilt, settings.rate_hz, settings.reorient_window_s)
     return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change,
                         sway_deg=a_u[:, 1:3].copy())
