@@ -292,22 +292,23 @@ def _resample(t: NDArray[np.float64], x: NDArray[np.float64], rate_hz: float) ->
     vibrating at 48 Hz read as walking at 120 steps/min), and a 60 Hz one, interpolated linearly straight onto
     the 50 Hz grid, folded the images of its 10-25 Hz content there: a Mobilise-D course resampled from its
     100 Hz to 50, 60, 128 and 200 Hz (band-limited, scipy's resample_poly) gave bouts whose cadences differed by
-    up to 8 % (and one 63 steps/min or none). So a recording faster than ``rate_hz`` is interpolated linearly
-    onto a uniform grid k times finer than ``rate_hz`` and at least as fine as the recording (gaps bridged by a
-    straight line, as before), low-passed there (4th-order Butterworth, zero phase, at
-    ``_ANTI_ALIAS_FRACTION`` x ``rate_hz``, 20 Hz: well above the gait band) and decimated by k; k is one more
-    such that the fine grid is at least twice the input rate: the linear interpolation's images of the input's
-    content (at the input rate +- up to half of it) then stay above the filter's cut-off on the fine grid
-    instead of folding into the gait band (with a grid only 50 Hz above the input rate, a 48 Hz vibration in
-    a 100 Hz recording folded to 2 Hz there). (A cubic spline straight onto the grid reconstructed as well but
-    took 300 MB for an hour at 200 Hz and was fooled by timestamps that arrive in bursts; this takes about 3 s
-    and 100 MB.) On HA/002's course the five rates then give the same bouts (edges within 0.02 s, cadences
-    within 0.4 %); on MS/001's the recording and its 128 and 200 Hz versions give the same bouts, at 50 Hz the
-    last bout starts 2.8 s later and at 60 Hz the 45-57 s bout reads 63 steps/min where the others have none
-    (a signal difference of about 1 % flips them: the segmentation's sensitivity, see bench_real_gait.py's
-    spread table). A slower recording (a
-    camera's 30 frames/s) is interpolated linearly, as before; a fast camera's angles (an action camera at
-    60-240 frames/s) take the same path as an IMU."""
+    up to 8 % (and one 63 steps/min or none).
+
+    So a recording faster than ``rate_hz`` (its rate: :func:`_input_rate_hz`) is interpolated linearly onto a
+    uniform grid k times finer than ``rate_hz`` and at least twice the recording's rate (gaps bridged by a
+    straight line, as before), low-passed there (4th-order Butterworth, zero phase, at ``_ANTI_ALIAS_FRACTION``
+    x ``rate_hz``, 20 Hz: well above the gait band) and decimated by k. At twice its rate the linear
+    interpolation's images of the recording's content (at its rate +- up to half of it) stay above the filter's
+    cut-off on the fine grid; on a grid only 50 Hz above its rate a 48 Hz vibration in a 100 Hz recording folded
+    to 2 Hz. A cubic spline straight onto the grid reconstructed as well but took 300 MB for an hour at 200 Hz
+    and was fooled by timestamps that arrive in bursts; this takes about 3 s and 130 MB.
+
+    On HA/002's course the five rates then give the same bouts (edges within 0.02 s, cadences within 0.4 %); on
+    MS/001's the recording and its 128 and 200 Hz versions give the same bouts, at 50 Hz the last bout starts
+    2.8 s later and at 60 Hz the 45-57 s bout reads 63 steps/min where the others have none (a signal
+    difference of about 1 % flips them: the segmentation's sensitivity, see bench_real_gait.py's spread table).
+    A slower recording (a camera's 30 frames/s) is interpolated linearly, as before; a fast camera's angles (an
+    action camera at 60-240 frames/s) take the same path as an IMU."""
     n = int(math.floor((t[-1] - t[0]) * rate_hz)) + 1
     grid = t[0] + np.arange(n) / rate_hz
     x2 = x.reshape(len(t), -1)
