@@ -323,7 +323,8 @@ def test_resampling_keeps_the_gait_band_and_folds_nothing_into_it(stamps: str, v
 
 def test_dropped_samples_are_bridged_without_inventing_motion(synthetic_imu) -> None:
     """A logger that dropped 1.5 s of samples mid-walk: the anti-aliased resampling bridges the gap by a straight
-    line (a cubic spline, tried first, swung across it and invented a step there), so the steps either side are
+    line (a cubic spline through the samples either side, as a first version had it, swung across the gap and
+    invented a step there), so the steps either side are
     those of the complete recording and no step is invented (every step found is one of the complete
     recording's)."""
     x = synthetic_imu([("stand", 3.0), ("walk", 24.0), ("stand", 3.0)], noise=0.1)
