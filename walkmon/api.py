@@ -137,6 +137,14 @@ class Analysis:
         """One line on the frames' estimation status (see :func:`status_summary`); '' without a video."""
         return status_summary(self.estimates) if self.estimates else ""
 
+    def _timeline_columns(self) -> dict[str, Any]:
+        """timeline.csv's columns (:data:`walkmon.tables.TIMELINE_COLUMNS`) from :attr:`timeline`'s rows: the
+        activity and label as text, the rest as floats."""
+        from walkmon.tables import TIMELINE_COLUMNS  # noqa: PLC0415
+
+        cols = zip(TIMELINE_COLUMNS, zip(*self.timeline, strict=True), strict=True)
+        return {k: list(v) if k in ("activity", "label") else np.array(v, dtype=float) for k, v in cols}
+
     def report_html(self, **timeline: Any) -> str:
         """report.html as a string. Its timeline is the gait analysis's per-second timeline (walkmon mode) unless
         ``timeline=`` (and ``timeline_source=``, ``stats=``, ``person=``: see :func:`walkmon.gait.report.render_report`)
@@ -148,10 +156,7 @@ class Analysis:
         if angles.size and np.isnan(angles[:, 1]).all():  # accelerometer only: no yaw, drawn as flat
             angles[:, 1] = 0.0
         if "timeline" not in timeline and self.timeline:
-            from walkmon.tables import TIMELINE_COLUMNS  # noqa: PLC0415
-
-            cols = dict(zip(TIMELINE_COLUMNS, zip(*self.timeline, strict=True), strict=True))
-            timeline = {"timeline": timeline_from_columns(cols),
+            timeline = {"timeline": timeline_from_columns(self._timeline_columns()),
                         "timeline_source": "Per second, from the gait analysis (activity, posture segments)."}
         return render_report(self.t_s, angles, self.gait, self.baseline, meta, settings=self.settings,
                              reference_deg=self.reference_deg, abs_angles_deg=self.abs_angles_deg, **timeline)
@@ -176,13 +181,8 @@ class Analysis:
         write_indicators(written["indicators.json"], self.gait)
         if self.timeline:
             written["timeline.csv"] = out / "timeline.csv"
-            rows = self.timeline
-            write_table(written["timeline.csv"], {
-                "t": np.array([r[0] for r in rows], dtype=float), "activity": [r[1] for r in rows],
-                "label": [r[2] for r in rows], "pitch": np.array([r[3] for r in rows], dtype=float),
-                "roll": np.array([r[4] for r in rows], dtype=float),
-                "ref_uncertainty_deg": np.array([r[5] for r in rows], dtype=float)},
-                precision={"t": 1, "pitch": 2, "roll": 2, "ref_uncertainty_deg": 1})
+            write_table(written["timeline.csv"], self._timeline_columns(),
+                        precision={"t": 1, "pitch": 2, "roll": 2, "ref_uncertainty_deg": 1})
         if not report:
             return written
         written["report.html"] = out / "report.html"
