@@ -107,9 +107,15 @@ def test_stride_cadence_is_the_mean_over_strides_not_steps_over_time() -> None:
     err_stride = cadence_errors([(steps[0], steps[-1], by_hand)], steps, bout)
     err_steps = cadence_errors([(steps[0], steps[-1], by_hand)], steps, bout, definition="steps")
     assert abs(err_stride[0].error_pct) < 1e-9 and err_steps[0].error_pct > 1.0
-    # a stride spanning two true bouts (a pause) is not a stride
+    # Mobilise-D's stride selection (0.2-3.0 s), not the true bouts, decides what a stride is: the strides
+    # across a stop of 1.2 s (2.0 and 2.1 s) count, as INDIP counts its 2.4-2.7 s ones; across 3 s they do not
     bout2 = np.r_[np.zeros(8, int), np.ones(8, int)]
-    assert truth_stride_cadence_between(steps, bout2, 0.0, 30.0)[1] == 12
+    assert truth_stride_cadence_between(steps, bout2, 0.0, 30.0)[1] == 14
+    for stop_s, n in ((1.2, 14), (3.0, 12)):
+        stopped = np.r_[steps[:8], steps[8:] + stop_s]
+        strides = stopped[2:] - stopped[:-2]
+        cad, got = truth_stride_cadence_between(stopped, bout2, 0.0, 40.0)
+        assert got == n and cad == pytest.approx(float(np.mean(120.0 / strides[strides <= 3.0])))
     with pytest.raises(ValueError, match="definition"):
         cadence_errors([(0.0, 1.0, 100.0)], steps, bout, definition="median")
 

@@ -31,12 +31,11 @@ Processing (:func:`segment`):
    period, maxima in the bout's rhythm, strong enough, where the trunk is not still. Known weakness: bending
    while standing just before or after a walk moves the trunk (not still) and leaves a bump after the one-step
    mean; a synthetic 10 deg bend ending 0.5 s before the first step starts the bout ~1 s early.
-4. **Cadence per bout** from the steps: the mean of 120 / stride duration after mending missed steps (an
-   interval ~2x the median step) and extra ones (two short intervals summing to one), which turns and slow
-   walking produce; strides spanning a pause (above ``pause_factor`` x the median stride about them) or hurried
-   (below that median / ``hurried_factor``) left out. From camera angles, no mending: strides with an interval
-   off the local rhythm are left out instead (:func:`cadence_from_steps`). The spectral peak of the bout is
-   kept as a cross-check.
+4. **Cadence per bout** from the steps: the mean of 120 / stride duration over the strides of ``stride_s``
+   (0.2-3.0 s, Mobilise-D's), after mending an isolated missed step (an interval ~2x the median step between
+   ordinary ones) and extra ones (two short intervals summing to one). From camera angles, no mending: strides
+   with an interval off the local rhythm are left out instead (:func:`cadence_from_steps`). The spectral peak
+   of the bout is kept as a cross-check.
 5. **Turns** (El-Gohary et al. 2013, Sensors 14(1) 356-369; also mobgap's ``TdElGohary``): the heading rate
    low-passed at 1.5 Hz; a turn is a run above ``turn_edge_deg_s`` (5 deg/s) that peaks above
    ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
@@ -105,10 +104,16 @@ class ActivitySettings:
     lowpass_factor: float = 1.6
     min_step_fraction: float = 0.6
     max_break_s: float = 3.0
+    # trunk acceleration: the strides a bout's cadence averages, s (Mobilise-D's stride selection, as INDIP
+    # reports its bouts' cadence: every stride of 0.2-3.0 s, slow turning strides and short stops included)
+    stride_s: tuple[float, float] = (0.2, 3.0)
     min_steps: int = 4
+    # camera angles, a bout with too few regular strides (see :func:`cadence_from_steps`): strides beyond
+    # pause_factor x the median stride about them (pause_window_strides either side), or below it /
+    # hurried_factor, are left out
     pause_factor: float = 1.3
     hurried_factor: float = 1.6
-    pause_window_strides: int = 3  # the median stride a pause or a hurried stride is judged against: local
+    pause_window_strides: int = 3
     rhythm_ratio: float = 1.3  # camera angles: a stride with an interval this far off the local rhythm is not used
     rhythm_window_steps: int = 4
     missed_step_ratio: tuple[float, float] = (1.6, 2.5)  # an interval this many median steps long: one step missed
@@ -155,6 +160,9 @@ class ActivitySettings:
         if not 1.0 < self.pace_change_ratio <= math.sqrt(2.0):
             msg = (f"pace_change_ratio must be in (1, 1.414] (a step and a stride of one rhythm are one rhythm, so "
                    f"two rhythms differ by at most a factor sqrt 2), got {self.pace_change_ratio}")
+            raise InvalidInputError(msg)
+        if not 0.0 < self.stride_s[0] < self.stride_s[1]:
+            msg = f"stride_s must be 0 < shortest < longest, got {self.stride_s}"
             raise InvalidInputError(msg)
         if int(self.min_steps) < 2:
             msg = f"min_steps must be >= 2, got {self.min_steps}"
@@ -990,13 +998,11 @@ def cadence_from_steps(
     120 / stride duration. Falls back to 60 / step duration with fewer than 3 steps.
 
     * **Trunk acceleration** (``mend=True``): missed and extra steps mended first
-      (:func:`corrected_step_times`); strides spanning a pause (longer than ``pause_factor`` x the median
-      stride about them, ``pause_window_strides`` either side) are left out, as are strides shorter than that
-      median / ``hurried_factor`` (a hurried first or last stride of gait initiation/termination). The median is
-      local because a walker changes pace within a bout (a limp giving way to a normal walk: strides of 1.45 and
-      1.1 s), and against the bout's median the slower half's strides read as pauses and were dropped, which
-      read such bouts 2-4 % fast (simulated unkind sessions, seeds 1-5); it is kept within ``pause_factor`` x the
-      bout's median, so that a few hesitations in a row do not become the rhythm.
+      (:func:`corrected_step_times`), then every stride of ``stride_s`` (0.2-3.0 s) counts: Mobilise-D's stride
+      selection (mobgap's ``IntervalDurationCriteria(0.2, 3.0)``), by which INDIP's bouts on the shared
+      courses hold strides of up to 2.4-2.7 s (7 of its 9 course bouts: turns, hesitations) in their cadence. Until 2026-11-27 strides beyond
+      1.3 x the median stride about them were left out as pauses: a turning bout's slow strides went with them,
+      and the courses' bouts read up to 26 % fast (MS/001) where INDIP counts them.
     * **Camera angles** (``mend=False``): the video's pitch maxima are not heel strikes; mending them made bout
       cadence worse (unkind video sessions: within 1 % 84 -> 77 % of bouts, scored with a fixed 0.25 s edge
       window). Where the pitch waveform changes phase (a posture change, a turn) a maximum goes missing or
@@ -1004,7 +1010,8 @@ def cadence_from_steps(
       interval off the rhythm about it (more than ``rhythm_ratio`` x or less than 1 / ``rhythm_ratio`` x the
       median interval of ``rhythm_window_steps`` either side, that median kept within ``rhythm_ratio`` x the
       bout's so that a run of missed steps does not become the rhythm) is left out, pauses included; with fewer
-      than 2 strides left, as for trunk acceleration.
+      than 2 strides left, strides beyond ``pause_factor`` x the local median stride or below it /
+      ``hurried_factor`` are left out.
 
     NaN (not measured) when the median interval is longer than the longest step (``step_period_s``): the
     events are then not the steps (the rotation of a real daily-living course, short strides and constant
@@ -1026,8 +1033,11 @@ def cadence_from_steps(
         if stride.size >= 2:
             return float(np.mean(120.0 / stride))
     stride = d[1:] + d[:-1]
+    if mend:
+        stride = stride[(stride >= s.stride_s[0]) & (stride <= s.stride_s[1])]
+        return float(np.mean(120.0 / stride)) if stride.size else float("nan")
     # local, but within pause_factor of the bout's: two hesitations a step apart make four long strides in a
-    # row, which must not become the rhythm (a walker who freezes now and then read 8 % slow)
+    # row, which must not become the rhythm
     med = _local_median(stride, s.pause_window_strides, s.pause_factor)
     stride = stride[(stride <= s.pause_factor * med) & (stride >= med / s.hurried_factor)]
     return float(np.mean(120.0 / stride)) if stride.size else float("nan")

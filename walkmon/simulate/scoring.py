@@ -120,16 +120,25 @@ def segment_label_accuracy(
     return (100.0 * right / n if n else float("nan")), n
 
 
-def _spans(step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s: float, k: int) -> NDArray[np.float64]:
-    """Durations from each true step in ``[start_s, end_s]`` to the one ``k`` steps later, of the same true bout
-    only (1: steps, 2: strides)."""
+# Mobilise-D's stride selection (mobgap's IntervalDurationCriteria(min_duration_s=0.2, max_duration_s=3.0)): the
+# strides a walking bout's cadence averages, whichever stretch of walking they join
+MOBILISED_STRIDE_S = (0.2, 3.0)
+
+
+def _spans(step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s: float, k: int,
+           *, within_s: tuple[float, float] | None = None) -> NDArray[np.float64]:
+    """Durations from each true step in ``[start_s, end_s]`` to the one ``k`` steps later (1: steps, 2:
+    strides): of the same true bout only, or (``within_s``) any of that length, across true bouts too."""
     t = np.asarray(step_times_s, dtype=float)
     bout = np.asarray(step_bout)
     inside = (t >= start_s) & (t <= end_s)
     t, bout = t[inside], bout[inside]
     if t.size <= k:
         return np.zeros(0)
-    return (t[k:] - t[:-k])[bout[k:] == bout[:-k]]
+    span = t[k:] - t[:-k]
+    if within_s is not None:
+        return span[(span >= within_s[0]) & (span <= within_s[1])]
+    return span[bout[k:] == bout[:-k]]
 
 
 def truth_cadence_between(
@@ -148,12 +157,15 @@ def truth_stride_cadence_between(
     step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s: float
 ) -> tuple[float, int]:
     """``(cadence in steps/min, strides)`` of the true steps in ``[start_s, end_s]`` by the field's definition:
-    the mean over strides (a step and the one two later, of the same true bout) of 120 / stride duration. This
-    is how Mobilise-D defines a walking bout's cadence and how the INDIP reference reports it (its cadence
-    equals this mean of its own initial contacts), and what walkmon reports. It differs from steps over time
-    (:func:`truth_cadence_between`) where the cadence changes within a bout: half 110 and half 80 steps/min
-    gives 95 here and 92.6 there. nan with no whole stride."""
-    stride = _spans(step_times_s, step_bout, start_s, end_s, 2)
+    the mean over strides (a step and the one two later) of 120 / stride duration, every stride of 0.2-3.0 s
+    counted (Mobilise-D's stride selection), so a stride across a short stop counts and one across a longer
+    stop does not. This is how Mobilise-D defines a walking bout's cadence and how the INDIP reference reports
+    it (its cadence equals this mean over its strides, 2.4-2.7 s ones included on the shared courses), and what
+    walkmon reports. Until 2026-11-27 only strides within one true bout counted (a stop of any length left
+    out), which is not INDIP's rule. It differs from steps over time (:func:`truth_cadence_between`) where the
+    cadence changes within a bout: half 110 and half 80 steps/min gives 95 here and 92.6 there. nan with no
+    whole stride."""
+    stride = _spans(step_times_s, step_bout, start_s, end_s, 2, within_s=MOBILISED_STRIDE_S)
     if stride.size == 0:
         return float("nan"), 0
     return float(np.mean(120.0 / stride)), int(stride.size)
