@@ -468,6 +468,23 @@ def test_handling_the_phone_is_no_walking() -> None:
     assert steps.size == pytest.approx(truth.size, rel=0.01)
 
 
+@pytest.mark.parametrize(("period_s", "harmonic"), [(1.3, 0.3), (1.6, 0.0), (1.6, 0.5), (2.0, 0.4)])
+def test_a_slow_rhythm_of_the_trunk_is_no_walk(period_s: float, harmonic: float) -> None:
+    """A trunk bouncing vertically every 1.3-2 s for 40 s (a chair rocking, a phone swung in the hand): its
+    events are further apart than any step, so no bout and no walking (before: 36-38 s of walking, one bout of
+    19-30 'steps' without a cadence)."""
+    fs = 100.0
+    t = np.arange(0.0, 40.0, 1.0 / fs)
+    rng = np.random.default_rng(0)
+    v = 0.8 * np.cos(2 * np.pi * t / period_s) + harmonic * 0.8 * np.cos(4 * np.pi * t / period_s + 0.7)
+    acc = np.column_stack([rng.normal(0, 0.05, t.size), 9.80665 + v + rng.normal(0, 0.05, t.size),
+                           rng.normal(0, 0.05, t.size)])
+    seg = segment(signals_from_imu(t, acc, rng.normal(0.0, 0.01, (t.size, 3))))
+    assert seg.bouts == ()
+    assert seg.walking_s == 0.0
+    assert "walking" not in set(seg.activity_at(np.arange(1.0, 39.0, 0.5)))
+
+
 def test_tilt_change_across_gravity_not_about_it() -> None:
     """The gyro's rotation across gravity is the tilt change (30 deg/s for 1.5 s: 45 deg); a turn about gravity
     at 120 deg/s is none; with an accelerometer alone, gravity's direction turning at 30 deg/s gives 45 deg."""

@@ -737,7 +737,14 @@ def bouts_from_steps(
         if g.size < settings.min_steps:
             continue
         g = _extend_edges(g, sig, settings, still, handled)
-        out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence_from_steps(g, settings, mend=sig is None or sig.kind != "angles"),
+        mend = sig is None or sig.kind != "angles"
+        cadence = cadence_from_steps(g, settings, mend=mend)
+        if mend and not np.isfinite(cadence):
+            # trunk acceleration's events are steps (a stride-long lag is halved, see _detect): events further
+            # apart than any step are another rhythm (a phone handled, a chair rocking: 1.3-2 s read as 36 s of
+            # walking), not a walk. A camera's pitch may repeat per stride, so its bout stays, without a cadence
+            continue
+        out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence,
                         _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
     return tuple(out)
 
