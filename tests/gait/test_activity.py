@@ -485,6 +485,20 @@ def test_a_slow_rhythm_of_the_trunk_is_no_walk(period_s: float, harmonic: float)
     assert "walking" not in set(seg.activity_at(np.arange(1.0, 39.0, 0.5)))
 
 
+def test_a_sensor_spun_by_hand_is_no_walk_or_turn(synthetic_imu) -> None:
+    """8 s of walking, 6 s where the sensor spins about gravity at 400 deg/s on average (a hand turning it over
+    and over, the bounce going on: BROAD's fast-rotation trials read such stretches as walking and turning),
+    8 s of walking. No step is kept in the spin and it reads ``unknown``; the walks either side are two bouts.
+    A walker's trunk turns at up to 115 deg/s (RMS over 1.5 s) on the real courses."""
+    imu = synthetic_imu([("walk", 8), ("turn", 6), ("walk", 8)], turn_deg=2400.0, seed=2)
+    seg = segment(signals_from_imu(imu.t, imu.acc, imu.gyr))
+    spin = (seg.steps_s > 9.0) & (seg.steps_s < 13.0)
+    assert not np.any(spin), seg.steps_s[spin]
+    assert set(seg.activity_at(np.arange(9.5, 12.6, 0.5))) == {"unknown"}
+    assert len(seg.bouts) == 2
+    assert seg.bouts[0].end_s < 9.0 and seg.bouts[1].start_s > 13.0  # the spin ramps up and down over ~1 s
+
+
 def test_tilt_change_across_gravity_not_about_it() -> None:
     """The gyro's rotation across gravity is the tilt change (30 deg/s for 1.5 s: 45 deg); a turn about gravity
     at 120 deg/s is none; with an accelerometer alone, gravity's direction turning at 30 deg/s gives 45 deg."""

@@ -44,7 +44,8 @@ Processing (:func:`segment`):
    ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
 6. **Handling**: where the trunk's tilt (:func:`tilt_change_deg`; for camera angles pitch and roll) spreads over
    more than ``reorient_deg`` within ``reorient_window_s``, outside turns, the sensor is being
-   handled (put on, taken off) or the wearer sits down, stands up or bends down: steps there are dropped, and so
+   handled (put on, taken off) or the wearer sits down, stands up or bends down; so is it, turns or not, where the
+   angular rate's RMS over that window is above ``spin_deg_s`` (faster than a trunk turns): steps there are dropped, and so
    are the few steps such a stretch cuts off a bout's ends and a lone edge step just beside it
    (:func:`_without_handled_edges`); inside a bout the stretch is a pause (shorter than ``max_break_s`` it joins, as
    above).
@@ -148,10 +149,14 @@ class ActivitySettings:
     # window is applied when the signals are made (signals_from_imu / signals_from_angles)
     reorient_deg: float = 45.0
     reorient_window_s: float = 1.5
+    # an angular rate whose RMS over reorient_window_s is above this (deg/s) is a sensor spun by hand, not a
+    # walker's trunk, turns included: a trunk's reaches 115 deg/s on the Mobilise-D courses' tightest turns (peaks
+    # of 136 deg/s; 126 in the simulator's 90-180 deg turns); BROAD's hand-held rotations run at 200-700
+    spin_deg_s: float = 250.0
 
     def __post_init__(self) -> None:
         for name in ("rate_hz", "window_s", "hop_s", "min_periodicity", "lowpass_factor", "max_break_s",
-                     "reorient_deg", "reorient_window_s"):
+                     "reorient_deg", "reorient_window_s", "spin_deg_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 msg = f"activity setting {name} must be a finite number > 0, got {v}"
@@ -906,13 +911,19 @@ def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, 
     """Per sample of ``sig``: the trunk's tilt spreading over more than ``reorient_deg`` within
     ``reorient_window_s`` (:func:`tilt_change_deg`), outside ``turns`` and half a window about them: a turn is
     no handling, though a tight one spreads a lower back's tilt by up to 50 deg (Mobilise-D HA/002's course) and a
-    tilted camera's start-relative pitch/roll by up to twice its tilt. None without the signal."""
+    tilted camera's start-relative pitch/roll by up to twice its tilt. Also, turns or not, where the angular rate's
+    RMS over that window is above ``spin_deg_s``: faster than any trunk turns (rhythmic hand-held rotation about
+    gravity passed as steps and turns: BROAD's fast-rotation trials). None without the signal."""
     if sig.tilt_change_deg is None:
         return None
     handled = np.asarray(sig.tilt_change_deg > s.reorient_deg, dtype=bool)
     for u in turns:
         handled[(sig.t_s >= u.start_s - 0.5 * s.reorient_window_s)
                 & (sig.t_s <= u.end_s + 0.5 * s.reorient_window_s)] = False
+    if sig.gyro_norm_deg_s is not None and sig.gyro_norm_deg_s.size:
+        k = max(1, int(round(s.reorient_window_s * s.rate_hz)))
+        ms = np.convolve(np.asarray(sig.gyro_norm_deg_s, dtype=float) ** 2, np.ones(k) / k, mode="same")
+        handled |= ms > s.spin_deg_s ** 2
     return handled
 
 
