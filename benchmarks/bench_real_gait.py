@@ -670,7 +670,8 @@ def main() -> int:
         "the literature, checked on the simulator). 'walkmon angles': the IMU's orientation alone through the",
         "video path's segmentation (what a camera measures of its own rotation; the lower back, not the chest).",
         "A bout whose step events are further apart than any step (median > 1.1 s) has no cadence (null, not",
-        "counted in the course cadence); the worst ref-bout column leaves such bouts out.",
+        "counted in the course cadence; from the IMU, one beyond 1.5 s is no bout); the worst ref-bout column",
+        "leaves such bouts out.",
         "",
         "| trial | reference | method | bouts (ours / ref) | walking F1 | cadence spm (ours / ref) | "
         "course cadence err % | worst ref-bout cadence err % |",

@@ -44,8 +44,9 @@ Processing (:func:`segment`):
    ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
 6. **Handling**: where the trunk's tilt (:func:`tilt_change_deg`; for camera angles pitch and roll) spreads over
    more than ``reorient_deg`` within ``reorient_window_s``, outside turns, the sensor is being
-   handled (put on, taken off) or the wearer sits down, stands up or bends down; so is it, turns or not, where the
-   angular rate's RMS over that window is above ``spin_deg_s`` (faster than a trunk turns): steps there are dropped, and so
+   handled (put on, taken off) or the wearer sits down, stands up or bends down; so is it, turns or not, where a
+   gyroscope's angular rate has an RMS over that window above ``spin_deg_s`` (faster than a trunk turns): steps
+   there are dropped, and so
    are the few steps such a stretch cuts off a bout's ends and a lone edge step just beside it
    (:func:`_without_handled_edges`); inside a bout the stretch is a pause (shorter than ``max_break_s`` it joins, as
    above).
@@ -149,8 +150,8 @@ class ActivitySettings:
     # window is applied when the signals are made (signals_from_imu / signals_from_angles)
     reorient_deg: float = 45.0
     reorient_window_s: float = 1.5
-    # an angular rate whose RMS over reorient_window_s is above this (deg/s) is a sensor spun by hand, not a
-    # walker's trunk, turns included: a trunk's reaches 115 deg/s on the Mobilise-D courses' tightest turns (peaks
+    # a gyroscope's angular rate whose RMS over reorient_window_s is above this (deg/s) is a sensor spun by hand,
+    # not a walker's trunk, turns included: a trunk's reaches 115 deg/s on the Mobilise-D courses' tightest turns (peaks
     # of 136 deg/s; 126 in the simulator's 90-180 deg turns); BROAD's hand-held rotations run at 200-700
     spin_deg_s: float = 250.0
 
@@ -743,12 +744,14 @@ def bouts_from_steps(
             continue
         g = _extend_edges(g, sig, settings, still, handled)
         mend = sig is None or sig.kind != "angles"
-        cadence = cadence_from_steps(g, settings, mend=mend)
-        if mend and not np.isfinite(cadence):
-            # trunk acceleration's events are steps (a stride-long lag is halved, see _detect): events further
-            # apart than any step are another rhythm (a phone handled, a chair rocking: 1.3-2 s read as 36 s of
-            # walking), not a walk. A camera's pitch may repeat per stride, so its bout stays, without a cadence
+        if mend and float(np.median(np.diff(g))) > 0.5 * settings.stride_s[1]:
+            # trunk acceleration's events are steps (a stride-long lag is halved, see _detect): events so far
+            # apart that two make no stride (longer than stride_s, Mobilise-D's 3 s) are another rhythm (a phone
+            # handled, a chair rocking every 1.6-2 s read as 36 s of walking), not a walk. Slower than any step
+            # but within that (1.1-1.5 s: 40-55 steps/min, a very slow walker) the bout stays, without a
+            # cadence; so does a camera's, whose pitch may repeat per stride
             continue
+        cadence = cadence_from_steps(g, settings, mend=mend)
         out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence,
                         _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
     return tuple(out)
@@ -911,8 +914,9 @@ def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, 
     """Per sample of ``sig``: the trunk's tilt spreading over more than ``reorient_deg`` within
     ``reorient_window_s`` (:func:`tilt_change_deg`), outside ``turns`` and half a window about them: a turn is
     no handling, though a tight one spreads a lower back's tilt by up to 50 deg (Mobilise-D HA/002's course) and a
-    tilted camera's start-relative pitch/roll by up to twice its tilt. Also, turns or not, where the angular rate's
-    RMS over that window is above ``spin_deg_s``: faster than any trunk turns (rhythmic hand-held rotation about
+    tilted camera's start-relative pitch/roll by up to twice its tilt. Also, turns or not, where a gyroscope's
+    angular rate has an RMS over that window (truncated at the recording's ends) above ``spin_deg_s``: faster
+    than any trunk turns (rhythmic hand-held rotation about
     gravity passed as steps and turns: BROAD's fast-rotation trials). None without the signal."""
     if sig.tilt_change_deg is None:
         return None
@@ -920,10 +924,14 @@ def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, 
     for u in turns:
         handled[(sig.t_s >= u.start_s - 0.5 * s.reorient_window_s)
                 & (sig.t_s <= u.end_s + 0.5 * s.reorient_window_s)] = False
-    if sig.gyro_norm_deg_s is not None and sig.gyro_norm_deg_s.size:
-        k = max(1, int(round(s.reorient_window_s * s.rate_hz)))
-        ms = np.convolve(np.asarray(sig.gyro_norm_deg_s, dtype=float) ** 2, np.ones(k) / k, mode="same")
-        handled |= ms > s.spin_deg_s ** 2
+    if sig.kind == "imu" and sig.gyro_norm_deg_s is not None:
+        # a gyroscope's rate only: a camera's comes from differentiated angle estimates, where one frame's
+        # correction of 60 deg reads as a spin (review)
+        g2 = np.concatenate([[0.0], np.cumsum(np.asarray(sig.gyro_norm_deg_s, dtype=float) ** 2)])
+        half = max(1, int(round(0.5 * s.reorient_window_s * s.rate_hz)))
+        idx = np.arange(len(sig.t_s))
+        lo, hi = np.clip(idx - half, 0, len(idx)), np.clip(idx + half, 0, len(idx))
+        handled |= (g2[hi] - g2[lo]) / np.maximum(hi - lo, 1) > s.spin_deg_s ** 2
     return handled
 
 
