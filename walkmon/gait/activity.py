@@ -35,10 +35,10 @@ Processing (:func:`segment`):
    while standing just before or after a walk moves the trunk (not still) and leaves a bump after the one-step
    mean; a synthetic 10 deg bend ending 0.5 s before the first step starts the bout ~1 s early.
 4. **Cadence per bout** from the steps: the mean of 120 / stride duration over the strides of ``stride_s``
-   (0.2-3.0 s, the duration rule of Mobilise-D's stride selection), after mending an isolated missed step (an interval ~2x the median step between
-   ordinary ones) and extra ones (two short intervals summing to one). From camera angles, no mending: strides
-   with an interval off the local rhythm are left out instead (:func:`cadence_from_steps`). The spectral peak
-   of the bout is kept as a cross-check.
+   (0.2-3.0 s, the duration rule of Mobilise-D's stride selection), after mending an isolated missed step (an
+   interval ~2x the median step between ordinary ones) and extra ones (two short intervals summing to one).
+   From camera angles, no mending: strides with an interval off the local rhythm are left out instead
+   (:func:`cadence_from_steps`). The spectral peak of the bout is kept as a cross-check.
 5. **Turns** (El-Gohary et al. 2013, Sensors 14(1) 356-369; also mobgap's ``TdElGohary``): the heading rate
    low-passed at 1.5 Hz; a turn is a run above ``turn_edge_deg_s`` (5 deg/s) that peaks above
    ``turn_peak_deg_s`` (15 deg/s) and turns at least ``turn_min_deg`` (45 deg) in 0.5-10 s.
@@ -46,8 +46,7 @@ Processing (:func:`segment`):
    more than ``reorient_deg`` within ``reorient_window_s``, outside turns, the sensor is being
    handled (put on, taken off) or the wearer sits down, stands up or bends down; so is it, turns or not, where a
    gyroscope's angular rate has an RMS over that window above ``spin_deg_s`` (faster than a trunk turns): steps
-   there are dropped, and so
-   are the few steps such a stretch cuts off a bout's ends and a lone edge step just beside it
+   there are dropped, and so are the few steps such a stretch cuts off a bout's ends and a lone edge step just beside it
    (:func:`_without_handled_edges`); inside a bout the stretch is a pause (shorter than ``max_break_s`` it joins, as
    above).
 7. **Timeline** at ``hop_s``: ``turning`` inside turns, ``walking`` inside bouts, ``standing`` where the trunk
@@ -151,8 +150,8 @@ class ActivitySettings:
     reorient_deg: float = 45.0
     reorient_window_s: float = 1.5
     # a gyroscope's angular rate whose RMS over reorient_window_s is above this (deg/s) is a sensor spun by hand,
-    # not a walker's trunk, turns included: a trunk's reaches 115 deg/s on the Mobilise-D courses' tightest turns (peaks
-    # of 136 deg/s; 126 in the simulator's 90-180 deg turns); BROAD's hand-held rotations run at 200-700
+    # not a walker's trunk, turns included: a trunk's reaches 115 deg/s on the Mobilise-D courses' tightest turns
+    # (peaks of 136 deg/s; 126 in the simulator's 90-180 deg turns); BROAD's hand-held rotations run at 200-700
     spin_deg_s: float = 250.0
 
     def __post_init__(self) -> None:
@@ -916,8 +915,8 @@ def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, 
     no handling, though a tight one spreads a lower back's tilt by up to 50 deg (Mobilise-D HA/002's course) and a
     tilted camera's start-relative pitch/roll by up to twice its tilt. Also, turns or not, where a gyroscope's
     angular rate has an RMS over that window (truncated at the recording's ends) above ``spin_deg_s``: faster
-    than any trunk turns (rhythmic hand-held rotation about
-    gravity passed as steps and turns: BROAD's fast-rotation trials). None without the signal."""
+    than any trunk turns (rhythmic hand-held rotation about gravity passed as steps and turns: BROAD's
+    fast-rotation trials). None without the signal."""
     if sig.tilt_change_deg is None:
         return None
     handled = np.asarray(sig.tilt_change_deg > s.reorient_deg, dtype=bool)
@@ -966,9 +965,10 @@ def corrected_step_times(steps_s: ArrayLike, settings: ActivitySettings = DEFAUL
     than ``ordinary_step_ratio`` x ``m``), as the Hampel filter of Mobilise-D's cadence drops an isolated outlier
     and keeps a run. A run of long intervals is slow stepping, not steps missed in a row: on the real courses,
     once the steps were found per step (see :func:`_detect`), INDIP had no contact inside 11 of the 16 long
-    intervals (1.6-2.5 steps) within its bouts, and mending runs read a turning bout of MS/001 at +55 %. A neighbour of any
-    other length means no steady rhythm there (standing up, a pause); two consecutive intervals both shorter than ``extra_step_fraction``
-    x ``m`` whose sum lies within 0.7-1.3 x ``m`` count as one step. Longer gaps (pauses) are kept as they are.
+    intervals (1.6-2.5 steps) within its bouts, and mending runs read a turning bout of MS/001 at +55 %. A
+    neighbour of any other length means no steady rhythm there (standing up, a pause); two consecutive intervals
+    both shorter than ``extra_step_fraction`` x ``m`` whose sum lies within 0.7-1.3 x ``m`` count as one step.
+    Longer gaps (pauses) are kept as they are.
     The idea follows mobgap's ``CadFromIc`` (Mobilise-D: step times cleaned of outliers before cadence, a
     Hampel filter there); here the outliers are mended as the missed/extra steps they are, which keeps the step
     count consistent. Needs >= 3 intervals (fewer: the raw durations).
