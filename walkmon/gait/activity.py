@@ -889,6 +889,15 @@ def _extend_edges(
     return np.concatenate([np.asarray(before, dtype=float), g, np.asarray(after, dtype=float)])
 
 
+def _running_rms(x: ArrayLike, half: int) -> NDArray[np.float64]:
+    """RMS of ``x`` over the ``half`` samples either side of each (truncated at the ends; any length of ``x``)."""
+    x = np.asarray(x, dtype=float)
+    csum = np.concatenate([[0.0], np.cumsum(x * x)])
+    idx = np.arange(len(x))
+    lo, hi = np.clip(idx - half, 0, len(x)), np.clip(idx + half, 0, len(x))
+    return np.asarray(np.sqrt((csum[hi] - csum[lo]) / np.maximum(hi - lo, 1)), dtype=float)
+
+
 def _still_samples(sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.bool_]:
     """The trunk still about each sample of ``sig`` (the timeline's standing test, :func:`segment`): the
     gait-band RMS of the step signal over 1 s below the source's still limit and, with a gyro or angles, the RMS
@@ -896,16 +905,9 @@ def _still_samples(sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.bool_]:
     fs = s.rate_hz
     x = _butter(sig.step, fs, (0.4, 4.0), "band")
     half = int(0.5 * fs)
-    csum = np.concatenate([[0.0], np.cumsum(x * x)])
-    idx = np.arange(len(x))
-    lo = np.clip(idx - half, 0, len(x))
-    hi = np.clip(idx + half, 0, len(x))
-    rms = np.sqrt((csum[hi] - csum[lo]) / np.maximum(hi - lo, 1))
-    still = rms < (s.still_rms_deg if sig.kind == "angles" else s.still_rms_acc)
+    still = _running_rms(x, half) < (s.still_rms_deg if sig.kind == "angles" else s.still_rms_acc)
     if sig.gyro_norm_deg_s is not None:
-        g2 = np.concatenate([[0.0], np.cumsum(sig.gyro_norm_deg_s ** 2)])
-        grms = np.sqrt((g2[hi] - g2[lo]) / np.maximum(hi - lo, 1))
-        still &= grms < s.still_gyro_deg_s
+        still &= _running_rms(sig.gyro_norm_deg_s, half) < s.still_gyro_deg_s
     return np.asarray(still, dtype=bool)
 
 
@@ -926,11 +928,8 @@ def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, 
     if sig.kind == "imu" and sig.gyro_norm_deg_s is not None:
         # a gyroscope's rate only: a camera's comes from differentiated angle estimates, where one frame's
         # correction of 60 deg reads as a spin (review)
-        g2 = np.concatenate([[0.0], np.cumsum(np.asarray(sig.gyro_norm_deg_s, dtype=float) ** 2)])
         half = max(1, int(round(0.5 * s.reorient_window_s * s.rate_hz)))
-        idx = np.arange(len(sig.t_s))
-        lo, hi = np.clip(idx - half, 0, len(idx)), np.clip(idx + half, 0, len(idx))
-        handled |= (g2[hi] - g2[lo]) / np.maximum(hi - lo, 1) > s.spin_deg_s ** 2
+        handled |= _running_rms(sig.gyro_norm_deg_s, half) > s.spin_deg_s
     return handled
 
 
