@@ -101,6 +101,9 @@ def _parser(path: str | Path) -> Any:
 
 
 def _rate(t: NDArray[np.float64]) -> float:
+    """A stream's samples per second over its span. Not walkmon.sampling's rate without gaps: a HERO5's
+    accelerometer samples (200 Hz) carry times 2.5 ms apart in bursts with half a second between them, which
+    that rate reads as 400 Hz with gaps."""
     return (len(t) - 1) / max(float(t[-1] - t[0]), 1e-9) if len(t) > 1 else 0.0
 
 

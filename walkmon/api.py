@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from walkmon.errors import ConfigError, InvalidInputError
 from walkmon.gait.indicators import Indicators, IndicatorSettings, compute_indicators, indicators_from_dict
+from walkmon.sampling import gaps, sampling_rate_hz
 
 if TYPE_CHECKING:
     from walkmon.drivers.video_file import VideoFile
@@ -451,7 +452,7 @@ def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, 
     units: list[str] = []
     t_raw, acc = read_acc_csv(imu_path, units_out=units)
     t_raw = t_raw + float(offset_s)
-    rate = (len(t_raw) - 1) / float(t_raw[-1] - t_raw[0])
+    rate = sampling_rate_hz(t_raw)
     step = max(1, int(np.ceil(rate / 100.0 - 1e-9)))
     absolute = gravity_angles_deg_from_gravity(-gravity_direction(acc, rate))[::step]
     t = t_raw[::step] - t_raw[0]
@@ -460,11 +461,24 @@ def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, 
                             "pitch_abs": absolute[:, 0], "roll_abs": absolute[:, 1],
                             "_imu_input": ImuInput(t_raw - t_raw[0], acc, None)}
     info = {"mode": "accelerometer_only", "imu": str(imu_path), "samples": len(t_raw), "rate_hz": round(rate, 3),
-            "rows": len(t), "axes": "accelerometer's own axes (no camera extrinsics)",
+            **_gap_doc(t_raw), "rows": len(t), "axes": "accelerometer's own axes (no camera extrinsics)",
             "note": "no gyroscope: pitch/roll from gravity (low-passed accelerometer), no yaw, no turns"}
     if units:
         info["units"] = units
     return cols, info
+
+
+def _gap_doc(t_s: NDArray[np.float64], listed: int = 20) -> dict[str, Any]:
+    """imu.json's ``gaps`` (none: nothing): the intervals without samples (walkmon.sampling.gaps: over 10 x the
+    usual interval), their count, total and longest length, and the first ``listed`` of them as ``[last sample
+    before, first sample after]`` in seconds from the IMU's first sample."""
+    found = gaps(t_s)
+    if not found:
+        return {}
+    t0 = float(t_s[0])
+    lengths = [b - a for a, b in found]
+    return {"gaps": {"n": len(found), "total_s": round(sum(lengths), 3), "longest_s": round(max(lengths), 3),
+                     "first": [[round(a - t0, 3), round(b - t0, 3)] for a, b in found[:listed]]}}
 
 
 def _imu_only_columns(
@@ -480,7 +494,7 @@ def _imu_only_columns(
     cols["_imu_input"] = ImuInput(imu.t_s - imu.t_s[0], imu.accelerometer_m_s2, imu.gyroscope_rad_s)
     info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter,
             "accelerometer_calibration": None if calib is None else str(calib), "samples": len(imu.t_s),
-            "rate_hz": round(imu.rate_hz, 3), "rows": len(cols["t"]),
+            "rate_hz": round(imu.rate_hz, 3), **_gap_doc(imu.t_s), "rows": len(cols["t"]),
             "axes": "camera axes (telemetry mapping)" if "telemetry" in source else "IMU's own axes (no camera extrinsics)",
             **source}
     return dict(cols), info
@@ -528,7 +542,7 @@ def _fused_columns(
     settings = _imu_settings(imu_filter, offset_s or 0.0, calib)
     info: dict[str, Any] = {"mode": "fused", "imu": str(imu_path), "imu_filter": imu_filter,
                             "accelerometer_calibration": None if calib is None else str(calib),
-                            "samples": len(imu.t_s), "rate_hz": round(imu.rate_hz, 3), **source}
+                            "samples": len(imu.t_s), "rate_hz": round(imu.rate_hz, 3), **_gap_doc(imu.t_s), **source}
     try:
         ext = extrinsics_from_angles(imu, ft, visual, ok)
         info["extrinsics_estimate"] = ext.to_dict()

@@ -211,3 +211,12 @@ def test_missing_inputs_are_one_line(tmp_path: Path, cli) -> None:
     cli("indicators", tmp_path / "nope.csv", "--out", tmp_path / "o").one_line_error("nope.csv")
     cli("analyze", "--imu", tmp_path, "--out", tmp_path / "o").one_line_error(str(tmp_path))
     shutil.rmtree(tmp_path / "o", ignore_errors=True)
+
+
+def test_imu_whose_clock_jumps_by_months_is_one_line(tmp_path: Path, cli) -> None:
+    """A clock reset 1e7 s into the future: the analysis grid would span it (a MemoryError after minutes)."""
+    rows = [f"{i / 100 + (1e7 if i >= 1000 else 0):.2f},0.001,0,0,0,-9.81,0\n" for i in range(2000)]
+    imu = tmp_path / "jump.csv"
+    imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(rows))
+    res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
+    res.one_line_error("clock jumps by 1e+07 s after t=9.99 s")

@@ -976,3 +976,36 @@ def test_a_pace_change_ratio_that_cannot_split_is_refused(ratio: float) -> None:
 
     with pytest.raises(InvalidInputError, match="pace_change_ratio"):
         ActivitySettings(pace_change_ratio=ratio)
+
+
+@pytest.mark.parametrize("gap_s", [2.0, 5.0])
+def test_a_gap_in_the_recording_is_unknown_and_no_bout_spans_it(synthetic_imu, gap_s: float) -> None:
+    """A 24 s walk whose samples from 10 s on are missing for ``gap_s`` (a dropout): nothing is known there, so
+    the timeline reads unknown (a straight line bridged it, which read as standing), no step is found in it and
+    no bout spans it (the steps lost in it are not known: a bout across a 2 s gap joined its two sides, as a
+    pause does, and counted the gap as walking). The walking on either side is found with its cadence."""
+    imu = synthetic_imu([("stand", 2), ("walk", 24), ("stand", 2)], seed=3)
+    lo, hi = 10.0, 10.0 + gap_s
+    keep = (imu.t < lo) | (imu.t > hi)
+    seg = segment(signals_from_imu(imu.t[keep], imu.acc[keep], imu.gyr[keep]))
+    assert len(seg.bouts) == 2, [(b.start_s, b.end_s) for b in seg.bouts]
+    assert seg.bouts[0].end_s < lo and seg.bouts[1].start_s > hi
+    assert not np.any((seg.steps_s > lo) & (seg.steps_s < hi))
+    for b in seg.bouts:
+        assert b.cadence_spm == pytest.approx(60 / 0.55, rel=0.01)
+    outside = imu.steps[(imu.steps < lo - 0.5) | (imu.steps > hi + 0.5)]
+    assert _matched(seg.steps_s, outside, 0.12) >= outside.size - 4  # a step lost at each edge of each bout
+    grid = np.arange(lo + 0.1, hi, 0.1)
+    assert set(seg.activity_at(grid)) == {"unknown"}
+    assert seg.in_gap(grid).all() and not seg.in_gap(np.array([5.0, 20.0])).any()
+    assert any(f"no samples for {gap_s:.1f} s from t=10.0 s" in n for n in seg.notes), seg.notes
+
+
+def test_a_recording_whose_clock_jumps_by_months_is_refused_not_exhausted() -> None:
+    """Times that jump by 1e7 s (a clock reset) made the analysis grid 5e8 samples long: a MemoryError after
+    minutes. It is refused at once, naming the jump."""
+    t = np.arange(0.0, 20.0, 0.01)
+    t[1000:] += 1e7
+    acc = np.tile([0.0, -9.81, 0.0], (t.size, 1))
+    with pytest.raises(InvalidInputError, match=r"clock jumps by 1e\+07 s after t=9\.99 s"):
+        signals_from_imu(t, acc, np.zeros((t.size, 3)))

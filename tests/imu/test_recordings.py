@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -97,3 +98,39 @@ def test_bad_imu_input_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.Cap
     argv = ["analyze", "--imu", str(good), "--imu-extrinsics", "estimate", "--out", str(tmp_path / "o")]
     assert main(argv) == 2  # estimating extrinsics needs a video
     assert "needs a VIDEO" in capsys.readouterr().err
+
+
+def test_a_gap_in_the_imu_recording_changes_no_angle_and_is_reported(session: Path, tmp_path: Path) -> None:
+    """The simulated walk's imu.csv with its clock moved on by 60 s after 3.5 s (a logger paused, a dropout): the
+    samples and their order are the walk's, so every angle must be the truth at the sample's own walk time.
+    The rate used to be (n - 1) / duration: 21 Hz here instead of 200, and VQF, a fixed-rate filter, integrated
+    each gyro sample over 47 ms instead of 5 (found on a real course with 60 s cut out: yaw 4.7 deg where it
+    read 141.7 without the gap). imu.json gives the rate without the gap and lists the gap; timeline.csv has no
+    row inside it and reads no activity there but unknown."""
+    cols = read_table(session / "imu.csv", ["t", "gx", "gy", "gz", "ax", "ay", "az"])
+    walk_t = np.asarray(cols["t"], dtype=float)
+    shifted = dict(cols)
+    shifted["t"] = np.where(walk_t > 3.5, walk_t + 60.0, walk_t)
+    imu = tmp_path / "imu_gap.csv"
+    write_table(imu, shifted, precision={"t": 6})
+    out = tmp_path / "gap"
+    assert main(["analyze", "--imu", str(imu), "--out", str(out)]) == 0
+    got = read_table(out / "angles.csv", ["t", "pitch", "yaw", "roll"])
+    t_out = np.asarray(got["t"], dtype=float)
+    t_walk = np.where(t_out > 3.5 + 30.0, t_out - 60.0, t_out)  # the gap's far side back on the walk's clock
+    truth = read_table(session / "truth.csv", ["t", "pitch", "yaw", "roll"])
+    est = np.column_stack([got["pitch"], got["yaw"], got["roll"]])
+    err = np.sqrt(np.mean((est - truth_at(truth, t_walk)) ** 2, axis=0))
+    assert np.all(err < [2.5, 1.5, 0.3]), err  # the bounds of the recording without the gap (test above)
+    info = json.loads((out / "imu.json").read_text())
+    assert info["rate_hz"] == pytest.approx(200.0, rel=1e-3)
+    assert info["gaps"]["n"] == 1
+    assert info["gaps"]["first"][0] == pytest.approx([3.5, 63.5], abs=0.01)
+    with (out / "timeline.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    t_tl = np.array([float(r["t"]) for r in rows])
+    assert not np.any((t_tl > 4.5) & (t_tl < 62.5)), t_tl
+    assert {r["activity"] for r, t in zip(rows, t_tl, strict=True) if 3.5 < t < 63.5} == {"unknown"}
+    gait = json.loads((out / "indicators.json").read_text())
+    assert all(b["end_s"] <= 3.5 or b["start_s"] >= 63.5 for b in gait["bouts"]), gait["bouts"]
+    assert any("no samples for 60.0 s from t=3.5 s" in n for n in gait["input"]["notes"])

@@ -93,6 +93,10 @@ def run(args: argparse.Namespace) -> int:
     if info.get("mode") == "fused":
         sys.stdout.write(f"fused with {info['imu']}: {info['visual_increments_used']} visual increments used, "
                          f"{info['visual_increments_rejected']} rejected\n")
+    if info.get("gaps"):
+        g = info["gaps"]
+        sys.stdout.write(f"note: the IMU has {g['n']} gap(s) without samples, {g['total_s']:.1f} s in all (the "
+                         f"longest {g['longest_s']:.1f} s; imu.json lists them)\n")
     if result.estimates:
         sys.stdout.write(f"{result.status_summary()} -> {files['angles.csv']}\n")
     from walkmon.commands.indicators import summary_line  # noqa: PLC0415

@@ -67,6 +67,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from walkmon.errors import InvalidInputError
+from walkmon.sampling import gaps, sampling_rate_hz
 
 __all__ = [
     "ACTIVITIES",
@@ -153,10 +154,13 @@ class ActivitySettings:
     # not a walker's trunk, turns included: a trunk's reaches 115 deg/s on the Mobilise-D courses' tightest turns
     # (peaks of 136 deg/s; 126 in the simulator's 90-180 deg turns); BROAD's hand-held rotations run at 200-700
     spin_deg_s: float = 250.0
+    # no samples for this long or longer (a dropout, the logger paused; walkmon.sampling.gaps): nothing is known
+    # there, so it is unknown, holds no steps and no turn, and no bout spans it (a step or more is lost in it)
+    max_gap_s: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("rate_hz", "window_s", "hop_s", "min_periodicity", "lowpass_factor", "max_break_s",
-                     "reorient_deg", "reorient_window_s", "spin_deg_s"):
+                     "reorient_deg", "reorient_window_s", "spin_deg_s", "max_gap_s"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 msg = f"activity setting {name} must be a finite number > 0, got {v}"
@@ -200,6 +204,11 @@ class TrunkSignals:
     #: the camera's yaw and roll (angles only, (N,2) degrees): the trunk's axial rotation and side bend, which
     #: swing once per stride, for telling a step from a stride (:func:`_is_stride`)
     sway_deg: NDArray[np.float64] | None = None
+    #: per sample: inside a gap of the recording (no samples for ``max_gap_s`` or longer; the signals there are
+    #: the straight line :func:`_resample` bridged it with); None without such a gap
+    gap: NDArray[np.bool_] | None = None
+    #: the gaps themselves, ``(last sample before, first sample after)``
+    gaps_s: tuple[tuple[float, float], ...] = ()
 
     @property
     def rate_hz(self) -> float:
@@ -251,6 +260,7 @@ class Segmentation:
     steady_steps_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     still: tuple[bool, ...] = ()  # per timeline sample: the trunk still (before bouts and turns overwrite it)
     handled: tuple[bool, ...] = ()  # per timeline sample: the sensor handled (:func:`_handled_samples`)
+    gap: tuple[bool, ...] = ()  # per timeline sample: inside a gap of the recording (TrunkSignals.gap)
 
     @property
     def walking_s(self) -> float:
@@ -261,8 +271,17 @@ class Segmentation:
         tt = np.asarray(t_s, dtype=float)
         if not self.activity:
             return np.full(tt.shape, "unknown")
-        idx = np.clip(np.searchsorted(self.timeline_t_s, tt - 0.5 * self._hop()), 0, len(self.activity) - 1)
-        return np.asarray(self.activity)[idx]
+        return np.asarray(self.activity)[self._index(tt)]
+
+    def in_gap(self, t_s: ArrayLike) -> NDArray[np.bool_]:
+        """Inside a gap of the recording at arbitrary times (nearest timeline sample; :attr:`gap`)."""
+        tt = np.asarray(t_s, dtype=float)
+        if len(self.gap) != len(self.activity) or not any(self.gap):
+            return np.zeros(tt.shape, dtype=bool)
+        return np.asarray(self.gap, dtype=bool)[self._index(tt)]
+
+    def _index(self, tt: NDArray[np.float64]) -> NDArray[np.intp]:
+        return np.clip(np.searchsorted(self.timeline_t_s, tt - 0.5 * self._hop()), 0, len(self.activity) - 1)
 
     def _hop(self) -> float:
         return float(self.timeline_t_s[1] - self.timeline_t_s[0]) if len(self.timeline_t_s) > 1 else 0.1
@@ -288,17 +307,6 @@ def _butter(x: NDArray[np.float64], fs: float, cutoff: float | tuple[float, floa
 #: a recording sampled faster than the analysis rate is low-passed at this fraction of the analysis rate before it
 #: is decimated to it (anti-aliasing; see :func:`_resample`)
 _ANTI_ALIAS_FRACTION = 0.4
-#: intervals longer than this x the mean sample interval are gaps (dropped samples), left out of the input's rate
-_GAP_FACTOR = 10.0
-
-
-def _input_rate_hz(t: NDArray[np.float64]) -> float:
-    """A recording's sampling rate: one over its mean sample interval, gaps left out. The mean, not the median:
-    a logger that stamps samples as they arrive in bursts (1, 1, 28 ms) samples at 100 Hz, not 1000."""
-    dt = np.diff(t)
-    mean = float(np.mean(dt))
-    kept = dt[dt <= _GAP_FACTOR * mean]
-    return 1.0 / float(np.mean(kept)) if kept.size else 1.0 / mean
 
 
 def _resample(t: NDArray[np.float64], x: NDArray[np.float64], rate_hz: float) -> tuple[NDArray, NDArray]:
@@ -311,7 +319,7 @@ def _resample(t: NDArray[np.float64], x: NDArray[np.float64], rate_hz: float) ->
     100 Hz to 50, 60, 128 and 200 Hz (band-limited, scipy's resample_poly) gave bouts whose cadences differed by
     up to 8 % (and one 63 steps/min or none).
 
-    So a recording faster than ``rate_hz`` (its rate: :func:`_input_rate_hz`) is interpolated linearly onto a
+    So a recording faster than ``rate_hz`` (its rate: :func:`walkmon.sampling.sampling_rate_hz`, gaps left out) is interpolated linearly onto a
     uniform grid k times finer than ``rate_hz`` and at least twice the recording's rate (gaps bridged by a
     straight line, as before), low-passed there (4th-order Butterworth, zero phase, at ``_ANTI_ALIAS_FRACTION``
     x ``rate_hz``, 20 Hz: well above the gait band) and decimated by k. At twice its rate the linear
@@ -329,7 +337,7 @@ def _resample(t: NDArray[np.float64], x: NDArray[np.float64], rate_hz: float) ->
     n = int(math.floor((t[-1] - t[0]) * rate_hz)) + 1
     grid = t[0] + np.arange(n) / rate_hz
     x2 = x.reshape(len(t), -1)
-    fs_in = _input_rate_hz(t) if len(t) > 1 else rate_hz
+    fs_in = sampling_rate_hz(t) if len(t) > 1 else rate_hz
     if fs_in <= 1.05 * rate_hz or n < 32:
         out = np.column_stack([np.interp(grid, t, x2[:, c]) for c in range(x2.shape[1])])
         return grid, out.reshape((n, *x.shape[1:]))
@@ -343,6 +351,10 @@ def _resample(t: NDArray[np.float64], x: NDArray[np.float64], rate_hz: float) ->
     return grid, out.reshape((n, *x.shape[1:]))
 
 
+#: The longest recording the segmentation takes (s): its analysis grid spans the recording, gaps included.
+MAX_SPAN_S = 48 * 3600.0
+
+
 def _check(t: ArrayLike, *arrays: ArrayLike) -> NDArray[np.float64]:
     tt = np.asarray(t, dtype=float)
     if tt.ndim != 1 or tt.size < 10:
@@ -350,6 +362,14 @@ def _check(t: ArrayLike, *arrays: ArrayLike) -> NDArray[np.float64]:
         raise InvalidInputError(msg)
     if np.any(np.diff(tt) <= 0) or not np.all(np.isfinite(tt)):
         msg = "times must be finite and strictly increasing"
+        raise InvalidInputError(msg)
+    span = float(tt[-1] - tt[0])
+    if span > MAX_SPAN_S:
+        # the analysis grid spans the whole recording, gaps included (1e7 s: a MemoryError)
+        i = int(np.argmax(np.diff(tt)))
+        msg = (f"the recording spans {span / 3600:.0f} h, more than {MAX_SPAN_S / 3600:.0f} h: its clock jumps by "
+               f"{tt[i + 1] - tt[i]:.6g} s after t={tt[i] - tt[0]:.6g} s (from its first sample); split it there "
+               "or fix its times")
         raise InvalidInputError(msg)
     for a in arrays:
         arr = np.asarray(a, dtype=float)
@@ -392,7 +412,7 @@ def signals_from_imu(
     tilt = np.degrees(np.column_stack([np.arcsin(np.clip(up[:, 2], -1, 1)), np.arcsin(np.clip(up[:, 0], -1, 1))]))
     change = tilt_change_deg(acc_u, None if gyr is None else gyr_u, fs, settings.reorient_window_s)
     return TrunkSignals(grid, vertical, heading, "imu" if gyr is not None else "acc", gnorm, tilt,
-                        tilt_change_deg=change)
+                        tilt_change_deg=change, **_gap_fields(t, grid, settings))
 
 
 def _window_range(x: NDArray[np.float64], fs: float, window_s: float) -> NDArray[np.float64]:
@@ -452,13 +472,24 @@ def signals_from_angles(
     # the tilt's change: of pitch and roll (about the start's vertical, so a turn changes them only by the
     # camera's own tilt; :func:`segment` leaves turns out of the handling rule), without the estimate's one-frame
     # corrections and single-frame glitches (a running median over ~0.1 s: 3 frames at 30 fps)
-    fps = (t.size - 1) / max(float(t[-1] - t[0]), 1e-9)
+    fps = sampling_rate_hz(t)
     glitch = max(3, int(round(0.1 * fps)) | 1)
     tilt = np.column_stack([_resample(t, median_filter(x, size=glitch, mode="nearest"), settings.rate_hz)[1]
                             for x in smooth])
     change = _window_range(tilt, settings.rate_hz, settings.reorient_window_s)
     return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change,
-                        sway_deg=a_u[:, 1:3].copy())
+                        sway_deg=a_u[:, 1:3].copy(), **_gap_fields(t, grid, settings))
+
+
+def _gap_fields(t: NDArray[np.float64], grid: NDArray[np.float64], s: ActivitySettings) -> dict[str, Any]:
+    """:class:`TrunkSignals`' ``gap`` and ``gaps_s`` for samples at ``t`` resampled onto ``grid``."""
+    found = tuple(gaps(t, s.max_gap_s))
+    if not found:
+        return {}
+    gap = np.zeros(grid.shape, dtype=bool)
+    for a, b in found:
+        gap[(grid > a) & (grid < b)] = True
+    return {"gap": gap, "gaps_s": found}
 
 
 def without_jumps(t_s: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -475,7 +506,7 @@ def without_jumps(t_s: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[n
     d = np.diff(x)
     dt = np.maximum(np.diff(t_s), 1e-9)
     r = np.abs(d) / dt
-    fs = (t_s.size - 1) / max(float(t_s[-1] - t_s[0]), 1e-9)
+    fs = sampling_rate_hz(t_s)
     local = median_filter(r, size=max(3, int(round(fs)) | 1), mode="mirror")
     before = np.concatenate([[np.nan], r[:-1]])
     after = np.concatenate([r[1:], [np.nan]])
@@ -723,11 +754,18 @@ def bouts_from_steps(
     st = np.asarray(steps_s, dtype=float)
     if handled is not None and sig is not None and st.size:
         st = st[~_still_at(handled, sig.t_s, st)]
+    gap, t_sig = (None, None) if sig is None else (sig.gap, sig.t_s)
+    if gap is not None and t_sig is not None and st.size:
+        st = st[~_still_at(gap, t_sig, st)]
     if st.size == 0:
         return ()
     if still is None and sig is not None and sig.kind == "angles" and settings.edge_search_steps > 0:
         still = _still_samples(sig, settings)  # once for all the bouts' edge searches
-    breaks = np.flatnonzero(np.diff(st) > settings.max_break_s)
+    brk = np.diff(st) > settings.max_break_s
+    if gap is not None and t_sig is not None:  # no bout spans a gap in the recording: its steps are not known
+        lost = np.concatenate([[0], np.cumsum(gap)])[np.searchsorted(t_sig, st)]
+        brk |= lost[1:] > lost[:-1]
+    breaks = np.flatnonzero(brk)
     groups = np.split(st, breaks + 1)
     amp = _step_amplitudes(st, sig, settings)
     amps = np.split(amp, breaks + 1)
@@ -1114,6 +1152,14 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
     steps, tc, gait = _detect(sig, s)
     still_samples = _still_samples(sig, s)
     turns = detect_turns(sig, s)
+    notes = []
+    if sig.gap is not None:
+        # nothing is known in a gap of the recording: neither standing, nor a step, nor a turn (the heading
+        # rate bridged over it by a straight line)
+        still_samples &= ~sig.gap
+        steps = steps[~_still_at(sig.gap, sig.t_s, steps)]
+        turns = tuple(u for u in turns if not any(a < u.end_s and b > u.start_s for a, b in sig.gaps_s))
+        notes.append(_gap_note(sig.gaps_s))
     handled = _handled_samples(sig, s, turns)
     if handled is not None and steps.size:
         steps = steps[~_still_at(handled, sig.t_s, steps)]
@@ -1129,12 +1175,26 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
         act[(grid >= u.start_s) & (grid <= u.end_s)] = "turning"
     handled_grid = _still_at(handled, sig.t_s, grid) if handled is not None else np.zeros(grid.shape, bool)
     act[handled_grid] = "unknown"
-    notes = []
+    gap_grid = _still_at(sig.gap, sig.t_s, grid) if sig.gap is not None else np.zeros(grid.shape, bool)
+    act[gap_grid] = "unknown"
     steady = steady_state_steps(bouts, turns, s)
     if sig.heading_rate_deg_s is None:
         notes.append("no heading (accelerometer only): turns not detected, no yaw")
     return Segmentation(tuple(bouts), turns, steps, grid, tuple(str(a) for a in act), sig.kind, tuple(notes), steady,
-                        tuple(bool(v) for v in still), tuple(bool(v) for v in handled_grid))
+                        tuple(bool(v) for v in still), tuple(bool(v) for v in handled_grid),
+                        tuple(bool(v) for v in gap_grid))
+
+
+def _gap_note(found: tuple[tuple[float, float], ...]) -> str:
+    """The input note on a recording's gaps (:attr:`TrunkSignals.gaps_s`)."""
+    what = "unknown there, with no steps, turns or standing, and no bout spans one"
+    if len(found) == 1:
+        a, b = found[0]
+        return f"no samples for {b - a:.1f} s from t={a:.1f} s (a gap in the recording): {what}"
+    a, b = max(found, key=lambda g: g[1] - g[0])
+    total = sum(e - s for s, e in found)
+    return (f"{len(found)} gaps in the recording ({total:.1f} s without samples; the longest {b - a:.1f} s from "
+            f"t={a:.1f} s): {what}")
 
 
 def steady_state_steps(

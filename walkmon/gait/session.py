@@ -56,6 +56,7 @@ from walkmon.gait.indicators import (
     analyze_gait,
 )
 from walkmon.gait.posture import ROTATION_STEP_TIMES
+from walkmon.sampling import sampling_rate_hz
 
 __all__ = [
     "DEFAULT_SESSION_SETTINGS",
@@ -360,7 +361,7 @@ def slow_offset(t_s: ArrayLike, raw: NDArray[np.float64], target: NDArray[np.flo
     d = np.asarray(target, dtype=float) - raw
     if t.size < 3:
         return raw + d
-    fs = (t.size - 1) / max(float(t[-1] - t[0]), 1e-9)
+    fs = sampling_rate_hz(t)
     w = max(1, int(round(span_s * fs)))
     kern = np.ones(w) / w
     sm = np.column_stack([np.convolve(np.pad(d[:, k], (w // 2, w - 1 - w // 2), mode="edge"), kern, "valid")
@@ -650,7 +651,7 @@ def posture_features(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSIO
     """Per sample: the slow (``smooth_s`` mean) pitch and roll, and the log of the gait's sway (RMS of pitch and
     roll about their slow part over ``smooth_s``): the inclination of a posture and how much the trunk sways in
     it (a dragged foot sways the trunk 2-3x as much as a normal walk, at the same inclination)."""
-    fs = (t.size - 1) / max(t[-1] - t[0], 1e-9)
+    fs = sampling_rate_hz(t)
     w = max(1, int(round(s.smooth_s * fs)))
     slow = np.column_stack([_moving_mean(a[:, k], w) for k in (0, 2)])
     osc = a[:, [0, 2]] - slow
@@ -670,7 +671,7 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
     ``change_swing_ratio`` in sway)."""
     if t.size < 4:
         return []
-    fs = (t.size - 1) / max(t[-1] - t[0], 1e-9)
+    fs = sampling_rate_hz(t)
     slow = posture_features(t, a, s)
     limits = change_limits(s)
     out: list[float] = []
@@ -1296,7 +1297,8 @@ def _settle_timeline(activity: NDArray, seg: Segmentation, s: SessionSettings) -
       contacts nearest the edges are not found; the walker was walking).
 
     Longer stretches stay ``unknown`` (sitting down, bending, handling the camera), and so does any stretch the
-    segmentation found the sensor handled in (``seg.handled``: tilted by more than its limit).
+    segmentation found the sensor handled in (``seg.handled``: tilted by more than its limit) or the recording
+    has no samples in (``seg.gap``).
     """
     out = activity.copy()
     grid = np.asarray(seg.timeline_t_s, dtype=float)
@@ -1305,6 +1307,8 @@ def _settle_timeline(activity: NDArray, seg: Segmentation, s: SessionSettings) -
     hop = float(grid[1] - grid[0])
     still = np.asarray(seg.still, dtype=bool) if len(seg.still) == grid.size else np.zeros(grid.size, bool)
     handled = np.asarray(seg.handled, dtype=bool) if len(seg.handled) == grid.size else np.zeros(grid.size, bool)
+    if len(seg.gap) == grid.size:
+        handled |= np.asarray(seg.gap, dtype=bool)  # a gap in the recording stays unknown as a handled stretch does
     min_still = int(round(0.5 / hop))
     for b in seg.bouts:
         st = np.asarray(b.steps_s, dtype=float)
@@ -1360,18 +1364,22 @@ def timeline_rows(
     an assumed-upright first stride: a degree or so). Without it a pitch read after a turn, where only the turns
     could carry the reference, looked as certain as one next to a standing phase (a walker who straightened up
     inside the only turn read 14 deg bent for 25 s of upright walking, its labels withheld but its pitch column
-    not qualified)."""
+    not qualified). A second inside a gap of the recording (:meth:`Segmentation.in_gap`) with no sample in it
+    has no row."""
     if t.size == 0:
         return ()
     grid = np.arange(0.0, float(t[-1] - t[0]) + 1e-9, step_s) + float(t[0])
     act = seg.activity_at(grid)
+    no_data = seg.in_gap(grid)
     bound = np.zeros(t.size) if unc is None else np.max(np.asarray(unc.deg, dtype=float), axis=1)
     rows = []
-    for g, ac in zip(grid, act, strict=True):
+    for g, ac, gap in zip(grid, act, no_data, strict=True):
         m = (t >= g - 0.5 * step_s) & (t < g + 0.5 * step_s)
         if m.any():
             pr = np.mean(a[m][:, [0, 2]], axis=0) - ref[[0, 2]]
             u = float(np.max(bound[m]))
+        elif gap:
+            continue  # a second inside a gap of the recording has no row: no pitch or roll was measured in it
         else:
             pr = np.array([np.interp(g, t, a[:, 0]) - ref[0], np.interp(g, t, a[:, 2]) - ref[2]])
             u = float(np.interp(g, t, bound))

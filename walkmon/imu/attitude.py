@@ -35,6 +35,7 @@ from walkmon.consts import (
     skew,
 )
 from walkmon.errors import ConfigError, InvalidInputError
+from walkmon.sampling import sampling_rate_hz
 
 __all__ = [
     "DEFAULT_ATTITUDE_SETTINGS",
@@ -740,7 +741,7 @@ def track_attitude(
     live path runs it; angles relative to the first sample. walkmon's own filters start from the recording's
     still start (:func:`initial_state_from_rest`); VQF starts as VQF does."""
     t, g, a = _check_imu_arrays(t_s, gyroscope_rad_s, accelerometer_m_s2)
-    rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
+    rate = sampling_rate_hz(t)  # gaps left out: VQF takes every sample as 1 / rate after the last
     start: dict[str, object] = {}
     if settings.filter != "vqf":
         a0, b0, b0_std, tilt_std = initial_state_from_rest(t, g, a)
@@ -838,7 +839,7 @@ def estimate_attitude(
     to the first sample; ``smooth``: offline forward filter + RTS backward pass (:func:`smooth_attitude`)."""
     t, g, a = _check_imu_arrays(t_s, gyroscope_rad_s, accelerometer_m_s2)
     a0, b0, b0_std, tilt_std = initial_state_from_rest(t, g, a)
-    rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
+    rate = sampling_rate_hz(t)
     if smooth:
         sm = smooth_attitude(
             t, g, a, _with_rate(settings, rate), initial_accelerometer_m_s2=a0, initial_bias_rad_s=b0,

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from walkmon.consts import GRAVITY_MS2
 from walkmon.errors import InvalidInputError
+from walkmon.sampling import sampling_rate_hz
 
 __all__ = ["AccelerometerCalibration", "calibrate_accelerometer", "still_poses"]
 
@@ -89,7 +90,7 @@ def still_poses(
     if g.shape != (len(t), 3) or a.shape != (len(t), 3) or len(t) < 10:
         msg = f"IMU arrays must be t (N>=10,), gyro (N,3), accel (N,3); got {t.shape}, {g.shape}, {a.shape}"
         raise InvalidInputError(msg)
-    rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
+    rate = sampling_rate_hz(t)
     from scipy.ndimage import uniform_filter1d  # noqa: PLC0415
 
     w = max(3, int(round(0.5 * rate)))

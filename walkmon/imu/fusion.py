@@ -47,6 +47,7 @@ from walkmon.imu.attitude import (
     track_attitude,
 )
 from walkmon.imu.calibration import AccelerometerCalibration
+from walkmon.sampling import sampling_rate_hz
 
 __all__ = [
     "DEFAULT_FUSION_SETTINGS",
@@ -401,7 +402,7 @@ def fuse_recording(
     t, g, a, ft, Rv, ok = _recording_arrays(imu_t_s, gyroscope_rad_s, accelerometer_m_s2, frame_t_s, visual_rotations, visual_ok)
     if settings.accelerometer_calibration is not None:
         a = settings.accelerometer_calibration.correct(a)
-    rate = (len(t) - 1) / max(t[-1] - t[0], 1e-9)
+    rate = sampling_rate_hz(t)  # gaps left out (walkmon.sampling)
     settings = replace(settings, attitude=replace(settings.attitude, rate_hz_nominal=float(rate)))
     if Rv is None:
         return _core_recording(t, g, a, ft, settings)
@@ -746,7 +747,7 @@ class LiveFusion:
             a0 = R_ci.T @ a0
             b0 = None if b0 is None else R_ci.T @ b0
             if len(t) > 1 and t[-1] > t[0]:
-                self._rate_hz = (len(t) - 1) / (t[-1] - t[0])
+                self._rate_hz = sampling_rate_hz(t)
             if b0 is None:  # not still: weight the vision as while the bias is unknown (as fuse_recording)
                 s = replace(s, visual_std_deg=s.visual_std_unknown_bias_deg)
             _log.info("IMU warm-up done (%d samples): fusion starts at t=%.3f s", len(t), t[-1])

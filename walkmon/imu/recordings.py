@@ -29,6 +29,7 @@ from walkmon.imu.fusion import (
     FusionTrack,
     fuse_recording,
 )
+from walkmon.sampling import sampling_rate_hz
 
 __all__ = [
     "ABS_COLUMNS",
@@ -64,7 +65,7 @@ class ImuRecording:
 
     @property
     def rate_hz(self) -> float:
-        return (len(self.t_s) - 1) / max(float(self.t_s[-1] - self.t_s[0]), 1e-9)
+        return sampling_rate_hz(self.t_s)  # gaps left out (walkmon.sampling)
 
 
 def _columns(track: FusionTrack, t_out: NDArray[np.float64]) -> dict[str, NDArray[np.float64]]:
