@@ -580,6 +580,7 @@ def _fused_columns(
     info["visual_increments_used"] = int(track.visual_used.sum())
     info["visual_increments_rejected"] = int(track.frames_rejected)
     info["gravity_resets"] = int(track.gravity_resets)
+    info["frames_without_imu"] = int(track.frames_without_imu)  # carried by the vision alone (an IMU dropout)
     return out, info
 
 

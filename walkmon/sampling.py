@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["GAP_FACTOR", "gap_threshold_s", "gaps", "sampling_rate_hz"]
+__all__ = ["GAP_FACTOR", "gap_threshold_s", "gaps", "longest_usual_interval_s", "sampling_rate_hz"]
 
 #: An interval longer than this x the recording's usual interval is a gap.
 GAP_FACTOR = 10.0
@@ -28,12 +28,19 @@ def _intervals(t_s: ArrayLike) -> NDArray[np.float64]:
     return d[np.isfinite(d) & (d > 0)]
 
 
+def longest_usual_interval_s(t_s: ArrayLike) -> float:
+    """The 99th percentile of the intervals between samples (s; inf with fewer than two intervals): the longest
+    a recording usually leaves between two samples, a bursty logger's pauses included, its gaps not."""
+    d = _intervals(t_s)
+    return float(np.quantile(d, 0.99)) if d.size >= 2 else float("inf")
+
+
 def gap_threshold_s(t_s: ArrayLike) -> float:
     """The shortest interval between two samples that is a gap (s); inf with fewer than two intervals."""
     d = _intervals(t_s)
     if d.size < 2:
         return float("inf")
-    usual = d[d <= np.quantile(d, 0.99)]
+    usual = d[d <= longest_usual_interval_s(t_s)]
     return GAP_FACTOR * float(np.mean(usual))
 
 

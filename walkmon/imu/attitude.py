@@ -340,6 +340,7 @@ class ImuAttitudeFilter:
         self.reference = np.eye(3)
         self.t_s: float | None = None
         self._last_gyro = np.zeros(3)
+        self._rate_unknown = False
         self._rest.reset()
         self.at_rest = False
         self._accel_envelope = 0.0
@@ -446,6 +447,21 @@ class ImuAttitudeFilter:
             self.extra = self.extra + dx[6 + 3 * self.n_clones :]
         return True
 
+    def rotate_by(self, rotation: NDArray[np.float64], std_rad: float, t_s: float) -> None:
+        """Turn the nominal orientation by ``rotation`` (a body-frame rotation measured otherwise: the camera's
+        between two frames while no gyroscope sample arrives), its error growing by ``std_rad`` per axis, and
+        move the clock to ``t_s`` without propagating the gyroscope over the time between."""
+        dR = np.asarray(rotation, dtype=float)
+        self._rate_unknown = True  # the rate before the gap is not the rate after it (advance_to)
+        self.rotation_world = self.rotation_world @ dR
+        self._rotation_gyro = self._rotation_gyro @ dR
+        P = self.kf.P
+        P[0:3, :] = dR.T @ P[0:3, :]
+        P[:, 0:3] = P[:, 0:3] @ dR
+        P[0:3, 0:3] += np.eye(3) * std_rad**2
+        if self.t_s is None or t_s > self.t_s:
+            self.t_s = float(t_s)
+
     def clone_current(self, index: int = 0) -> None:
         """Copy the current orientation (and its covariance) into clone ``index``."""
         k = 6 + 3 * index
@@ -466,8 +482,11 @@ class ImuAttitudeFilter:
 
     def advance_to(self, t_s: float, gyro: NDArray[np.float64] | None = None) -> AttitudeStatus | None:
         """Propagate to ``t_s``: with the mean of the last and this gyro reading when ``gyro`` is given (then
-        remember it), else with the last reading (a frame time between two IMU samples)."""
+        remember it), else with the last reading (a frame time between two IMU samples); after
+        :meth:`rotate_by`, with this reading alone."""
         status = None
+        if gyro is not None and self._rate_unknown:
+            self._last_gyro, self._rate_unknown = np.asarray(gyro, dtype=float), False
         if self.t_s is None:
             self.t_s = t_s
             status = AttitudeStatus.INITIALISING

@@ -47,7 +47,7 @@ from walkmon.imu.attitude import (
     track_attitude,
 )
 from walkmon.imu.calibration import AccelerometerCalibration
-from walkmon.sampling import sampling_rate_hz
+from walkmon.sampling import longest_usual_interval_s, sampling_rate_hz
 
 __all__ = [
     "DEFAULT_FUSION_SETTINGS",
@@ -65,6 +65,10 @@ _log = logging.getLogger(__name__)
 
 #: Chi-square 99.9 % quantile, 3 degrees of freedom.
 _GATE_3DOF = 16.27
+
+#: No IMU sample for this long (s, or max_imu_gap_s when longer) restarts the attitude core at the next one: a
+#: fixed-rate filter does not know the time it missed, and its gravity would be off by what the sensor turned.
+_CORE_RESTART_GAP_S = 0.1
 
 #: Gyro bias std (rad/s, 0.05 deg/s) above which visual increments get ``visual_std_unknown_bias_deg``.
 _BIAS_KNOWN_RAD_S = float(np.radians(0.05))
@@ -104,6 +108,13 @@ class FusionSettings:
     camera's, as in the simulator). ``time_offset_s``: added to IMU timestamps to put them on the video clock.
     ``accelerometer_calibration``: the accelerometer's bias and scale (``walkmon calibrate-imu``), removed from
     every sample as it enters :func:`fuse_recording` or :class:`LiveFusion`; None: samples taken as they are.
+    ``max_imu_gap_s``: frames more than this after the last IMU sample (a dropout, an IMU that stopped before the
+    video) are carried by the vision alone, frame to frame (a held frame holds), each adding ``visual_std_deg``
+    of doubt; the gyroscope's last rate is not extrapolated over them (it was: a 2 s dropout of a simulated
+    walk's IMU left every later fused angle 7-20 deg off, the vision's increments rejected as outliers against
+    the extrapolation). Offline (:func:`fuse_recording`) it is 1.5 of the IMU's longest usual intervals when
+    that is shorter. The first IMU sample after a gap of 0.1 s or more restarts the attitude core (a
+    fixed-rate filter knows nothing of the time it missed), whose gravity then waits ``core_warmup_s``.
     """
 
     attitude: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS
@@ -126,6 +137,7 @@ class FusionSettings:
     smoother_window_s: float = 1.0
     visual_std_unknown_bias_deg: float = 0.02
     accelerometer_calibration: AccelerometerCalibration | None = None
+    max_imu_gap_s: float = 0.1
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.visual_std_deg) and self.visual_std_deg > 0):
@@ -142,7 +154,7 @@ class FusionSettings:
             msg = f"visual_baseline_s must be >= 0 (0 = every frame), got {self.visual_baseline_s}"
             raise ConfigError(msg)
         for name in ("core_gravity_std_deg", "core_gravity_hz", "core_warmup_s", "gravity_reset_s", "visual_window_std_deg", "visual_std_unknown_bias_deg", "visual_drift_std_deg_s", "visual_scale_std", "visual_roll_std_factor",
-                     "smoother_window_s"):
+                     "smoother_window_s", "max_imu_gap_s"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 msg = f"{name} must be positive, got {value}"
@@ -227,6 +239,8 @@ class CameraImuFusion:
         self._last_imu_t: float | None = None
         self._has_reference = False
         self._last_visual: NDArray[np.float64] | None = None
+        self._prev_visual: NDArray[np.float64] | None = None  # the last frame's visual orientation, when ok
+        self.frames_without_imu = 0
         self._anchor_t_s = -np.inf
         self.frames_used = 0
         self.frames_rejected = 0
@@ -248,6 +262,8 @@ class CameraImuFusion:
         accel = self._R_ci @ np.asarray(accelerometer_m_s2, dtype=float)
         tv = t_s + self.settings.time_offset_s
         f = self._filter
+        if self._last_imu_t is not None and tv - self._last_imu_t > max(self.settings.max_imu_gap_s, _CORE_RESTART_GAP_S):
+            self._after_gap(tv)
         f.advance_to(tv, gyro)
         self._core.push(tv, gyro, accel)
         dt = 0.0 if self._last_imu_t is None else tv - self._last_imu_t
@@ -264,6 +280,17 @@ class CameraImuFusion:
         elif self._since_gravity_s >= 1.0 / self.settings.core_gravity_hz - 1e-9:
             self._gravity_step(self._since_gravity_s)
             self._since_gravity_s = 0.0
+
+    def _after_gap(self, tv: float) -> None:
+        """The first IMU sample after a gap: a new attitude core, its gravity unused for ``core_warmup_s``."""
+        s = self.settings
+        _log.info("fusion: no IMU samples for %.2f s before t=%.3f s: attitude core restarted",
+                  tv - (self._last_imu_t or tv), tv)
+        self._core = make_core(s.imu_filter, s.attitude.rate_hz_nominal)
+        self._core_age_s = 0.0
+        self._core_warmup_s = s.core_warmup_s
+        self._since_gravity_s = 0.0
+        self._rejected_s = 0.0
 
     def _gravity_step(self, elapsed_s: float) -> None:
         """The core's gravity as a tilt measurement; after ``gravity_reset_s`` of gated updates, reset to it."""
@@ -327,8 +354,12 @@ class CameraImuFusion:
         if f.t_s is None:
             msg = "push_frame before any IMU sample: the fusion needs IMU data up to the frame time"
             raise InvalidInputError(msg)
+        Rv_ok = None if visual_rotation is None or not ok else np.asarray(visual_rotation, dtype=float)
+        if self._last_imu_t is not None and t_s - self._last_imu_t > self.settings.max_imu_gap_s:
+            return self._vision_only(t_s, Rv_ok)
         if t_s > f.t_s:
             f.advance_to(t_s)
+        self._prev_visual = Rv_ok
         used = rejected = False
         if not self._has_reference:
             f.set_reference()
@@ -348,6 +379,24 @@ class CameraImuFusion:
             self._last_visual = None  # the chain is broken: the next good frame only re-anchors
         self.frames_used += used
         self.frames_rejected += rejected
+        return self._estimate(t_s, used, rejected)
+
+    def _vision_only(self, t_s: float, Rv: NDArray[np.float64] | None) -> FusedEstimate:
+        """A frame with no IMU sample for ``max_imu_gap_s`` before it: turned by the vision's change since the
+        last frame (held when this frame or the last was not ok), with ``visual_std_deg`` more doubt."""
+        f = self._filter
+        prev, self._prev_visual = self._prev_visual, Rv
+        self._last_visual = None  # the increments' chain re-anchors once the IMU is back
+        turn = np.eye(3) if Rv is None or prev is None else prev.T @ Rv
+        f.rotate_by(turn, float(np.radians(self.settings.visual_std_deg)), t_s)
+        if not self._has_reference:
+            f.set_reference()
+            self._has_reference = True
+        self.frames_without_imu += 1
+        return self._estimate(t_s, used=Rv is not None and prev is not None, rejected=False)
+
+    def _estimate(self, t_s: float, used: bool, rejected: bool) -> FusedEstimate:
+        f = self._filter
         R = f.reference.T @ f.rotation_world
         g = f.gravity_down
         g = np.array([0.0, 1.0, 0.0]) if g is None else g
@@ -376,6 +425,8 @@ class FusionTrack:
     frames_rejected: int = 0
     method: str = field(default="imu")
     gravity_resets: int = 0
+    #: frames with no IMU sample for ``max_imu_gap_s`` before them, carried by the vision alone
+    frames_without_imu: int = 0
 
     def __post_init__(self) -> None:
         for name in ("t_s", "angles_deg", "abs_angles_deg", "gravity_down", "visual_used", "gyroscope_bias_rad_s"):
@@ -403,7 +454,10 @@ def fuse_recording(
     if settings.accelerometer_calibration is not None:
         a = settings.accelerometer_calibration.correct(a)
     rate = sampling_rate_hz(t)  # gaps left out (walkmon.sampling)
-    settings = replace(settings, attitude=replace(settings.attitude, rate_hz_nominal=float(rate)))
+    # offline every sample is known: a frame beyond 1.5 of the IMU's longest usual intervals after the last sample
+    # has none coming (7.5 ms at 200 Hz), and the gyroscope's rate is not extrapolated to it
+    settings = replace(settings, attitude=replace(settings.attitude, rate_hz_nominal=float(rate)),
+                       max_imu_gap_s=min(settings.max_imu_gap_s, 1.5 * longest_usual_interval_s(t)))
     if Rv is None:
         return _core_recording(t, g, a, ft, settings)
     if settings.offline_smoother:
@@ -436,6 +490,7 @@ def fuse_recording(
         frames_rejected=fusion.frames_rejected,
         method="fused",
         gravity_resets=fusion.gravity_resets,
+        frames_without_imu=fusion.frames_without_imu,
     )
 
 
