@@ -26,6 +26,16 @@ Accelerometer and gyroscope may be sampled at different rates (HERO5: 200 and 40
 returns samples with one of them missing. The accelerometer is linearly interpolated onto the gyroscope's
 timestamps (its rate is the higher); gyroscope samples outside the accelerometer's span are dropped.
 
+The slower stream's times (:func:`spread_bursts`): GPMF stores about a second of samples per payload, spread
+evenly over it. telemetry-parser (0.3) gives a HERO5's 200 accelerometer samples of a payload the times of its
+first 200 gyroscope samples: each second's accelerometer squeezed into its first half, 2.5 ms apart, then half
+a second with none (karma.mp4: bursts of 196-200 samples starting 0.99-1.01 s apart). Interpolated as they came,
+every step the accelerometer saw would be timed up to half a second early and a straight line would fill the
+other half: the cadence of a walk filmed on a HERO5 read from nonsense. A stream whose samples come in bursts
+faster than 1.5 x its rate over whole bursts is re-timed, each burst spread evenly from its first sample to the
+next burst's (the last over its share of the rate); a stream with real gaps (its rate within a burst the rate
+over the bursts) is left as it is.
+
 The clock: the timestamps are the telemetry track's, which starts with the video but is not frame-exact (a
 frame or two on GoPro). ``walkmon analyze`` estimates the remaining offset from gyro vs visual rates
 (:func:`walkmon.imu.extrinsics.estimate_extrinsics`) unless ``--imu-offset-s`` is given.
@@ -54,7 +64,8 @@ from walkmon.errors import (
     SourceError,
 )
 
-__all__ = ["CAMERA_FROM_TELEMETRY", "TelemetryImu", "TelemetryImuFile", "read_telemetry_imu", "recording_from_normalized"]
+__all__ = ["CAMERA_FROM_TELEMETRY", "TelemetryImu", "TelemetryImuFile", "read_telemetry_imu", "recording_from_normalized",
+           "spread_bursts"]
 
 #: telemetry-parser's normalised IMU axes -> walkmon camera axes (``v_camera = M @ v_normalised``).
 CAMERA_FROM_TELEMETRY = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
@@ -169,6 +180,7 @@ def recording_from_normalized(
 
     tg, gyro = _strictly_increasing(np.asarray(t_gyro_s, float), np.asarray(gyro_dps, float).reshape(-1, 3))
     ta, accel = _strictly_increasing(np.asarray(t_accel_s, float), np.asarray(accel_m_s2, float).reshape(-1, 3))
+    tg, ta = spread_bursts(tg), spread_bursts(ta)
     if len(tg) < _MIN_SAMPLES or len(ta) < 2:
         msg = f"{source}: {len(tg)} gyroscope and {len(ta)} accelerometer samples; need a gyroscope and an accelerometer"
         raise InvalidInputError(msg)
@@ -180,6 +192,35 @@ def recording_from_normalized(
     accel_at_g = np.column_stack([np.interp(tg, ta, accel[:, j]) for j in range(3)])
     M = CAMERA_FROM_TELEMETRY
     return ImuRecording(np.ascontiguousarray(tg), np.radians(gyro) @ M.T, accel_at_g @ M.T)
+
+
+def spread_bursts(t_s: NDArray[np.float64], min_burst: int = 8) -> NDArray[np.float64]:
+    """A stream's sample times with squeezed payloads spread out (see the module text): bursts are runs of
+    samples whose intervals are at most 10 x the median one; when there are three or more, each of at least
+    ``min_burst`` samples, starting at regular times (every span from one burst's first sample to the next
+    one's within 20 % of their median: payloads) and the rate within them is over 1.5 x the rate over whole
+    bursts, each burst's samples are spread evenly from its first sample to the next burst's, the last one's at
+    the rate over the others. Otherwise (a dropout) the times as they are."""
+    t = np.asarray(t_s, dtype=float)
+    if t.size < 2 * min_burst:
+        return t
+    d = np.diff(t)
+    step = float(np.median(d))
+    cuts = np.flatnonzero(d > 10.0 * step) + 1
+    if step <= 0 or cuts.size == 0:
+        return t
+    starts, ends = np.r_[0, cuts], np.r_[cuts, t.size]
+    n = ends - starts
+    spans = np.diff(t[starts])
+    rate = float(np.sum(n[:-1]) / np.sum(spans))
+    regular = spans.size >= 2 and bool(np.all(np.abs(spans - np.median(spans)) <= 0.2 * np.median(spans)))
+    if not regular or n.min() < min_burst or 1.0 / step < 1.5 * rate:
+        return t  # gaps between runs at the stream's own rate (a dropout), not squeezed payloads
+    out = np.empty_like(t)
+    for k, (i0, i1) in enumerate(zip(starts, ends, strict=True)):
+        span = spans[k] if k < spans.size else (i1 - i0) / rate
+        out[i0:i1] = t[i0] + span * np.arange(i1 - i0) / (i1 - i0)
+    return out
 
 
 def _strictly_increasing(t: NDArray[np.float64], v: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -27,6 +27,7 @@ from walkmon.drivers.telemetry_imu import (  # noqa: E402
     TelemetryImuFile,
     read_telemetry_imu,
     recording_from_normalized,
+    spread_bursts,
 )
 
 needs_karma = pytest.mark.skipif(not KARMA.is_file(), reason="shared GoPro sample not available")
@@ -48,6 +49,27 @@ def test_mapping_is_a_proper_rotation_and_interpolates_the_slower_accelerometer(
     assert np.allclose(rec.accelerometer_m_s2[:, 1:], [-9.81, 0.3])
     with pytest.raises(InvalidInputError, match="accelerometer"):
         recording_from_normalized(tg, np.degrees(w_cam), ta[:1], f_cam[:1])
+
+
+def test_accelerometer_bursts_of_a_hero5_payload_are_spread_over_it() -> None:
+    """A HERO5's payloads hold 1 s of gyroscope (400 Hz) and accelerometer (200 Hz) samples; telemetry-parser
+    gives the accelerometer samples the times of the payload's first 200 gyroscope samples (karma.mp4: bursts
+    2.5 ms apart, 0.99-1.01 s between bursts). The accelerometer on the gyroscope's times must be the true
+    signal at those times; interpolated as given it was off by up to the signal's whole swing (the walker's
+    steps shifted by up to half a second). A stream with a real gap keeps its times."""
+    M = CAMERA_FROM_TELEMETRY
+    tg = np.arange(5 * 400) / 400.0
+    true_t = np.arange(5 * 200) / 200.0  # when the accelerometer really sampled
+    f_cam = np.column_stack([np.sin(2 * np.pi * 1.8 * true_t), -9.81 + 0 * true_t, 0.5 * np.cos(2 * np.pi * 0.9 * true_t)])
+    given_t = np.concatenate([tg[p * 400 : p * 400 + 200] for p in range(5)])  # squeezed as the parser gives them
+    rec = recording_from_normalized(tg, np.zeros((tg.size, 3)), given_t, f_cam @ M)
+    want = np.column_stack([np.sin(2 * np.pi * 1.8 * rec.t_s), np.full(rec.t_s.size, -9.81),
+                            0.5 * np.cos(2 * np.pi * 0.9 * rec.t_s)])
+    assert rec.t_s[-1] > 4.9  # the last payload's samples spread over its second too
+    assert np.abs(rec.accelerometer_m_s2 - want).max() < 0.01  # linear interpolation of 200 Hz samples
+    assert np.array_equal(spread_bursts(tg), tg)
+    dropout = np.r_[np.arange(0, 400), np.arange(600, 1000)] / 200.0  # 1 s without samples at the same rate
+    assert np.array_equal(spread_bursts(dropout), dropout)
 
 
 def test_a_file_without_telemetry_is_a_one_line_error(tmp_path: Path) -> None:
