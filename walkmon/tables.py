@@ -191,33 +191,28 @@ TIMELINE_COLUMNS = ("t", "activity", "label", "pitch", "roll", "ref_uncertainty_
 
 
 def imu_file_kind(path: str | Path) -> str:
-    """'imu' for ``t,gx,gy,gz,ax,ay,az``; 'acc' for ``t,ax,ay,az`` without a gyroscope (issue 11)."""
-    cols = read_table(path, ACC_COLUMNS)
+    """'imu' for ``t,gx,gy,gz,ax,ay,az``; 'acc' for ``t,ax,ay,az`` without a gyroscope (issue 11). Bad rows are
+    the reader's to skip and count: read strictly here, one NaN row refused the whole file before the reader
+    that skips it was reached."""
+    cols = read_table(path, ACC_COLUMNS, skip_bad_rows=True)
     return "imu" if all(c in cols for c in ("gx", "gy", "gz")) else "acc"
 
 
 def read_acc_csv(path: str | Path, *, units_out: list[str] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """(t (N,) s, acc (N,3) m/s²) of an accelerometer-only file; non-finite values or time stamps that do not
-    increase are one clear error (InvalidInputError); an accelerometer in g is converted (:mod:`walkmon.imu.units`;
-    the line saying so is appended to ``units_out``); rows the imu.csv reader's plausibility rules reject (out of
-    range, no gravity) are skipped and counted, and fewer than 10 plausible rows are an error."""
-    cols = read_table(path, ACC_COLUMNS)
+    """(t (N,) s, acc (N,3) m/s²) of an accelerometer-only file, read as imu.csv is (:func:`read_imu_file`):
+    malformed and non-finite rows and the rows the plausibility rules reject (out of range, no gravity, time
+    going back) are skipped and counted; a clock that goes back for more than 1 % of the rows, or fewer than 10
+    plausible rows, is an error (InvalidInputError); an accelerometer in g is converted
+    (:mod:`walkmon.imu.units`; the line saying so is appended to ``units_out``)."""
+    rejected: Counter[str] = Counter()
+    cols = read_table(path, ACC_COLUMNS, skip_bad_rows=True, rejected=rejected)
     t = np.asarray(cols["t"], dtype=float)
-    acc = np.column_stack([cols["ax"], cols["ay"], cols["az"]]).astype(float)
-    if len(t) < 10:
-        msg = f"{path}: only {len(t)} accelerometer samples; need at least 10"
-        raise InvalidInputError(msg)
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(acc))):
-        msg = f"{path}: non-numeric or missing values in t,ax,ay,az"
-        raise InvalidInputError(msg)
-    if np.any(np.diff(t) <= 0):
-        msg = f"{path}: accelerometer timestamps must strictly increase"
-        raise InvalidInputError(msg)
+    acc = np.column_stack([cols["ax"], cols["ay"], cols["az"]]).astype(float) if len(t) else np.zeros((0, 3))
+    n_total = len(t) + sum(rejected.values())
     _, acc, units = _in_si_units(path, t, None, acc)
     if units_out is not None:
         units_out.extend(units)
-    # the imu.csv reader's rules: out of range, no gravity (a dead sensor)
-    keep = _keep_plausible(path, t, None, acc, Counter(), len(t), 10, "accelerometer", "t,ax,ay,az in s, m/s2")
+    keep = _keep_plausible(path, t, None, acc, rejected, n_total, 10, "accelerometer", "t,ax,ay,az in s, m/s2")
     return t[keep], acc[keep]
 
 
@@ -333,6 +328,14 @@ def _keep_plausible(
     from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
 
     keep, why = plausible_rows(t, gyro, acc)
+    back = np.diff(t) < 0
+    if why.get("time_back", 0) > max(1, 0.01 * n_total) and back.any():
+        # a clock reset (or files joined): the rows after it are not a few late samples to drop (repeated time
+        # stamps, a logger writing rows twice, are)
+        i = int(np.argmax(back))
+        msg = (f"{path}: the time goes back by {t[i] - t[i + 1]:.6g} s after t={t[i]:.6g} s ({why['time_back']} of "
+               f"{n_total} rows not after the row before them): a clock reset or joined files; split the file there")
+        raise InvalidInputError(msg)
     rejected.update(why)
     counts = ", ".join(f"{k} {v}" for k, v in sorted(rejected.items()))
     if rejected:

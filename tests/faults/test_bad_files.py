@@ -220,3 +220,42 @@ def test_imu_whose_clock_jumps_by_months_is_one_line(tmp_path: Path, cli) -> Non
     imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(rows))
     res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
     res.one_line_error("clock jumps by 1e+07 s after t=9.99 s")
+
+
+def _still_rows(n: int, gyro: bool = True) -> list[str]:
+    rng = np.random.default_rng(0)
+    rows = []
+    for i in range(n):
+        a = rng.normal(0.0, 0.02, 3) + [0.0, -9.81, 0.0]
+        g = rng.normal(0.0, 0.002, 3)
+        rows.append(",".join(f"{v:.5f}" for v in ([i / 100] + (list(g) if gyro else []) + list(a))) + "\n")
+    return rows
+
+
+@pytest.mark.parametrize("gyro", [True, False], ids=["imu", "accelerometer only"])
+def test_a_few_nan_rows_are_skipped_and_counted_not_the_whole_file_refused(tmp_path: Path, cli, gyro: bool) -> None:
+    """A logger's glitch: 10 rows of NaN in 20 s. The reader skips and counts such rows, but the file-kind check
+    before it read the file strictly and refused it for the first NaN (and the accelerometer-only reader refused
+    any non-finite value)."""
+    rows = _still_rows(2000, gyro)
+    cols = "gx,gy,gz," if gyro else ""
+    for i in range(500, 510):
+        rows[i] = f"{i / 100:.2f}," + ",".join(["nan"] * (6 if gyro else 3)) + "\n"
+    imu = tmp_path / "glitch.csv"
+    imu.write_text(f"t,{cols}ax,ay,az\n" + "".join(rows))
+    res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
+    assert res.rc == 0, res.err
+    assert f"1990 {'IMU' if gyro else 'accelerometer'} rows" in res.out  # 2000 less the 10 skipped
+    assert (tmp_path / "out" / "indicators.json").is_file()
+
+
+@pytest.mark.parametrize("gyro", [True, False], ids=["imu", "accelerometer only"])
+def test_a_clock_reset_mid_file_is_one_line_not_half_the_rows_dropped(tmp_path: Path, cli, gyro: bool) -> None:
+    """The clock restarts from 0 at row 1000 (a logger restarted, two files joined): every later row is 'late'.
+    Dropping them as a few late samples would lose half the recording with a warning; it is refused, naming where."""
+    rows = _still_rows(2000, gyro)
+    rows[1000:] = [f"{float(r.split(',', 1)[0]) - 10.0:.2f}," + r.split(",", 1)[1] for r in rows[1000:]]
+    imu = tmp_path / "reset.csv"
+    imu.write_text(f"t,{'gx,gy,gz,' if gyro else ''}ax,ay,az\n" + "".join(rows))
+    res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
+    res.one_line_error("the time goes back by 9.99 s after t=9.99 s", "split the file there")
