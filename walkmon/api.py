@@ -45,6 +45,7 @@ __all__ = [
     "angle_columns",
     "estimate_rotations",
     "load_session",
+    "measured_rows",
     "open_video",
     "status_summary",
 ]
@@ -263,6 +264,19 @@ def analyze_angles(
     return _gait_stage(columns, baseline=baseline, mode=mode, reference_deg=reference_deg, meta=meta)
 
 
+def measured_rows(model: ArrayLike | Sequence[str] | None, fused: ArrayLike | None = None) -> NDArray[np.bool_] | None:
+    """The rows of a video's angles that measure something (None: no ``model`` column, every row does): not the
+    frames the estimator held (``model`` ``hold``: the last orientation repeated over a lens cap, a repeated,
+    featureless or lost frame), unless an IMU carried them (``fused``: angles.csv's ``visual_used`` column, the
+    session log's ``fused``; any value there means the fusion gave every row). The session analysis leaves the
+    held rows out, so a held stretch of a second or more is a gap of the recording (unknown, no steps, no bout
+    across it, no timeline row): held through a 4 s lens cap mid-walk, the flat angles read as 4 s of standing."""
+    if model is None or fused is not None:
+        return None
+    held = np.asarray([str(m) == "hold" for m in np.asarray(model).reshape(-1)], dtype=bool)
+    return ~held if held.any() else None
+
+
 def _gait_stage(
     columns: Mapping[str, Any],
     *,
@@ -292,6 +306,9 @@ def _gait_stage(
 
         absolute = (np.column_stack([np.asarray(columns["pitch_abs"], float), np.asarray(columns["roll_abs"], float)])
                     if "pitch_abs" in columns and "roll_abs" in columns else None)
+        keep = measured_rows(columns.get("model"), columns.get("visual_used"))
+        if keep is not None:
+            t, a, absolute = t[keep], a[keep], None if absolute is None else absolute[keep]
         session = analyze_session(t, a, imu=imu_input, abs_angles_deg=absolute, baseline=base, settings=settings,
                                   no_yaw=no_yaw, reference_deg=ref)
         indicators, timeline = session.indicators, session.timeline
@@ -695,6 +712,10 @@ class Session:
         a = (np.column_stack([self.frames[c] for c in ("pitch", "yaw", "roll")]).astype(float) if t.size
              else np.empty((0, 3)))
         ok = np.all(np.isfinite(a), axis=1) if t.size else np.zeros(0, bool)
+        fused = np.asarray(self.frames["fused"], dtype=float) if t.size else np.zeros(0)
+        measured = measured_rows(self.frames["model"], fused if np.isfinite(fused).any() else None)
+        if measured is not None:
+            ok &= measured
         t, a = t[ok], a[ok]
         # schema 2: the fused gravity-referenced angles (NULL where not fused, or in a camera-only session)
         absolute = np.column_stack([self.frames["pitch_abs"], self.frames["roll_abs"]])[ok] if ok.size else None

@@ -32,7 +32,8 @@ if TYPE_CHECKING:
     from walkmon.imu.recordings import ImuRecording
 
 __all__ = ["ACC_COLUMNS", "TIMELINE_COLUMNS", "ImuFile", "imu_file_kind", "read_acc_csv", "read_accelerometer_calibration",
-           "read_imu_csv", "read_imu_file", "read_indicators", "read_table", "write_indicators", "write_table"]
+           "read_imu_csv", "read_imu_file", "read_indicators", "read_table", "read_text_column", "write_indicators",
+           "write_table"]
 
 _log = logging.getLogger(__name__)
 
@@ -167,6 +168,24 @@ def write_table(
         writer = csv.writer(fh, lineterminator="\n")
         writer.writerow(names)
         writer.writerows(zip(*formatted, strict=True))
+
+
+def read_text_column(path: str | Path, name: str) -> list[str] | None:
+    """The text of column ``name`` of a CSV table, one entry per data row (None without that column), e.g.
+    angles.csv's ``model``, which :func:`read_table` leaves out as non-numeric. Rows are counted as
+    :func:`read_table` counts them (blank lines skipped)."""
+    from walkmon.safe_io import MAX_TABLE_BYTES, read_bounded  # noqa: PLC0415
+
+    try:
+        text = read_bounded(Path(path), MAX_TABLE_BYTES, "CSV table").decode("utf-8")
+        rows = [r for r in csv.reader(io.StringIO(text, newline="")) if r and any(c.strip() for c in r)]
+    except (UnicodeDecodeError, csv.Error):
+        return None  # read_table has already said what is wrong with such a file
+    header = [c.strip() for c in rows[0]] if rows else []
+    if name not in header:
+        return None
+    k = header.index(name)
+    return [r[k].strip() if k < len(r) else "" for r in rows[1:]]
 
 
 def read_imu_csv(path: str | Path, *, units_out: list[str] | None = None) -> ImuRecording:

@@ -998,7 +998,8 @@ def test_a_gap_in_the_recording_is_unknown_and_no_bout_spans_it(synthetic_imu, g
     grid = np.arange(lo + 0.1, hi, 0.1)
     assert set(seg.activity_at(grid)) == {"unknown"}
     assert seg.in_gap(grid).all() and not seg.in_gap(np.array([5.0, 20.0])).any()
-    assert any(f"no samples for {gap_s:.1f} s from t=10.0 s" in n for n in seg.notes), seg.notes
+    assert any(f"nothing measured for {gap_s:.1f} s from t=10.0 s (a gap in the recording: samples missing)" in n
+               for n in seg.notes), seg.notes
 
 
 def test_a_recording_whose_clock_jumps_by_months_is_refused_not_exhausted() -> None:

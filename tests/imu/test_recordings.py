@@ -157,4 +157,4 @@ def test_a_gap_in_the_imu_recording_changes_no_angle_and_is_reported(session: Pa
     assert {r["activity"] for r, t in zip(rows, t_tl, strict=True) if 3.5 < t < 63.5} == {"unknown"}
     gait = json.loads((out / "indicators.json").read_text())
     assert all(b["end_s"] <= 3.5 or b["start_s"] >= 63.5 for b in gait["bouts"]), gait["bouts"]
-    assert any("no samples for 60.0 s from t=3.5 s" in n for n in gait["input"]["notes"])
+    assert any("nothing measured for 60.0 s from t=3.5 s" in n for n in gait["input"]["notes"])

@@ -98,7 +98,8 @@ def _meta_beside(path: Path) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from walkmon.tables import read_table  # noqa: PLC0415
+    from walkmon.api import measured_rows  # noqa: PLC0415
+    from walkmon.tables import read_table, read_text_column  # noqa: PLC0415
 
     path = Path(args.angles)
     table = read_table(path, ANGLE_COLUMNS)
@@ -107,6 +108,10 @@ def run(args: argparse.Namespace) -> int:
     # the gravity-referenced angles of 'walkmon analyze --imu' (NaN where not fused), shown as analyze shows them
     absolute = (np.column_stack([table["pitch_abs"], table["roll_abs"]])
                 if "pitch_abs" in table and "roll_abs" in table else None)
+    model = read_text_column(path, "model")
+    keep = measured_rows(model, table.get("visual_used")) if model is not None and len(model) == len(t) else None
+    if keep is not None:  # the frames the estimator held measure nothing (see measured_rows), as in analyze
+        t, angles, absolute = t[keep], angles[keep], None if absolute is None else absolute[keep]
     json_path, html_path, ind = gait_outputs(
         args.out, t, angles, baseline_path=args.baseline, mode=args.mode, meta=_meta_beside(path),
         abs_angles_deg=absolute,

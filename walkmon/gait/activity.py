@@ -1159,7 +1159,7 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
         still_samples &= ~sig.gap
         steps = steps[~_still_at(sig.gap, sig.t_s, steps)]
         turns = tuple(u for u in turns if not any(a < u.end_s and b > u.start_s for a, b in sig.gaps_s))
-        notes.append(_gap_note(sig.gaps_s))
+        notes.append(_gap_note(sig.gaps_s, sig.kind))
     handled = _handled_samples(sig, s, turns)
     if handled is not None and steps.size:
         steps = steps[~_still_at(handled, sig.t_s, steps)]
@@ -1185,15 +1185,16 @@ def segment(sig: TrunkSignals, settings: ActivitySettings = DEFAULT_ACTIVITY_SET
                         tuple(bool(v) for v in gap_grid))
 
 
-def _gap_note(found: tuple[tuple[float, float], ...]) -> str:
-    """The input note on a recording's gaps (:attr:`TrunkSignals.gaps_s`)."""
+def _gap_note(found: tuple[tuple[float, float], ...], kind: str) -> str:
+    """The input note on a recording's gaps (:attr:`TrunkSignals.gaps_s`); ``kind``: the signals' source."""
     what = "unknown there, with no steps, turns or standing, and no bout spans one"
+    why = "frames missing, or held by the rotation estimator" if kind == "angles" else "samples missing"
     if len(found) == 1:
         a, b = found[0]
-        return f"no samples for {b - a:.1f} s from t={a:.1f} s (a gap in the recording): {what}"
+        return f"nothing measured for {b - a:.1f} s from t={a:.1f} s (a gap in the recording: {why}): {what}"
     a, b = max(found, key=lambda g: g[1] - g[0])
     total = sum(e - s for s, e in found)
-    return (f"{len(found)} gaps in the recording ({total:.1f} s without samples; the longest {b - a:.1f} s from "
+    return (f"{len(found)} gaps in the recording ({why}; {total:.1f} s in all, the longest {b - a:.1f} s from "
             f"t={a:.1f} s): {what}")
 
 

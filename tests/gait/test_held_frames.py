@@ -1,0 +1,73 @@
+"""Frames the rotation estimator holds measure nothing: a lens cap mid-walk is no standing (simulator truth)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from walkmon.commands.cli import main
+
+CAP = (6.0, 10.0)  # the lens is covered (black frames) from 6 to 10 s of an 18 s session (walking 2-16 s)
+
+
+@pytest.fixture(scope="module")
+def capped(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("capped")
+    subprocess.run([sys.executable, "-m", "walkmon", "simulate", "--walk", "normal:14", "--width", "160",
+                    "--height", "120", "--seed", "4", "--out", str(d)], check=True, capture_output=True, timeout=300)
+    src = cv2.VideoCapture(str(d / "video.mp4"))
+    fps = src.get(cv2.CAP_PROP_FPS)
+    out = cv2.VideoWriter(str(d / "capped.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), fps, (160, 120))
+    i = 0
+    while True:
+        ok, frame = src.read()
+        if not ok:
+            break
+        out.write(np.zeros_like(frame) if CAP[0] <= i / fps < CAP[1] else frame)
+        i += 1
+    out.release()
+    return d
+
+
+def _timeline(path: Path) -> list[dict[str, str]]:
+    with path.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _truth_walking(d: Path, t: float) -> bool:
+    with (d / "truth_timeline.csv").open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    k = min(range(len(rows)), key=lambda i: abs(float(rows[i]["t"]) - t))
+    return rows[k]["activity"] == "walking"
+
+
+@pytest.mark.parametrize("command", ["analyze", "indicators"])
+def test_a_lens_cap_mid_walk_is_unknown_not_standing(capped: Path, tmp_path: Path, command: str) -> None:
+    """The walker walks on behind a covered lens; the estimator holds the orientation (featureless). Those
+    flat angles read as 4 s of standing, which the person never did. Now the held frames are left out of the
+    session analysis: the stretch is a gap (unknown, no timeline row inside it) and no bout spans it; the walking
+    before and after is still found."""
+    assert all(_truth_walking(capped, t) for t in np.arange(*CAP, 0.5))  # the truth: walking all along
+    out = tmp_path / "out"
+    assert main(["analyze", str(capped / "capped.mp4"), "--calib", str(capped / "camera.yaml"), "--out", str(out),
+                 "--no-progress"]) == 0
+    if command == "indicators":  # the same from the angles.csv analyze wrote (its model column says 'hold')
+        out2 = tmp_path / "out2"
+        assert main(["indicators", str(out / "angles.csv"), "--out", str(out2)]) == 0
+        out = out2
+    rows = _timeline(out / "timeline.csv")
+    inside = [r for r in rows if CAP[0] + 0.5 < float(r["t"]) < CAP[1] - 0.5]
+    assert not inside, inside  # no second inside the cap has a row: nothing was measured there
+    edges = [r["activity"] for r in rows if CAP[0] - 0.1 < float(r["t"]) < CAP[1] + 0.1]
+    assert "standing" not in edges, edges
+    walking = [r for r in rows if r["activity"] == "walking"]
+    assert any(float(r["t"]) < CAP[0] for r in walking) and any(float(r["t"]) > CAP[1] for r in walking)
+    gait = json.loads((out / "indicators.json").read_text())
+    assert all(b["end_s"] <= CAP[0] + 0.1 or b["start_s"] >= CAP[1] - 0.1 for b in gait["bouts"]), gait["bouts"]
