@@ -72,12 +72,15 @@ def test_fused_analysis_adds_gravity_angles_and_keeps_video_angles(session: Path
     assert f"<tr><td>pitch_abs mean [deg]</td><td>{np.mean(cols['pitch_abs'][fused]):.3f}</td></tr>" in html
 
 
-@pytest.mark.parametrize("drop", [(3.0, 5.0), (4.0, 7.5)], ids=["2 s dropout mid-walk", "IMU stops 3 s early"])
+@pytest.mark.parametrize("drop", [(3.0, 5.0), (3.025, 5.0), (4.025, 7.5)],
+                         ids=["2 s dropout mid-walk", "the same, 25 ms after a frame", "IMU stops 3 s early"])
 def test_fused_angles_carry_across_an_imu_dropout(session: Path, tmp_path: Path, drop: tuple[float, float]) -> None:
     """The simulated walk fused with its imu.csv missing ``drop`` (a Bluetooth dropout mid-walk; an IMU log
     that ends before the video): the frames without IMU samples are carried by the vision, so the fused angles
-    stay within the bounds of the whole recording (the test above). The gyroscope's last rate used to be
-    extrapolated over the dropout and every later angle was off: here 4-18 deg RMS over the walk."""
+    stay within 0.1 deg RMS of the truth. The gyroscope's last rate used to be
+    extrapolated over the dropout and every later angle was off: here 4-18 deg RMS over the walk. A dropout that
+    starts between frames must not count the rotation from the last frame to the last sample twice (review: 0.26
+    deg RMS of pitch for a 25 ms offset, before the vision-only frames started from the last frame's orientation)."""
     cols = read_table(session / "imu.csv", ["t", "gx", "gy", "gz", "ax", "ay", "az"])
     keep = (cols["t"] < drop[0]) | (cols["t"] > drop[1])
     imu = tmp_path / "imu_drop.csv"
@@ -90,7 +93,7 @@ def test_fused_angles_carry_across_an_imu_dropout(session: Path, tmp_path: Path,
     truth = read_table(session / "truth.csv", ["t", "pitch", "yaw", "roll"])
     est = np.column_stack([got["pitch"], got["yaw"], got["roll"]])
     err = np.sqrt(np.mean((est - truth_at(truth, got["t"])) ** 2, axis=0))
-    assert np.all(err < [0.3, 0.5, 0.3]), err
+    assert np.all(err < 0.1), err  # without the dropout: 0.005 / 0.024 / 0.007 (now 0.02-0.03 with it)
     info = json.loads((out / "imu.json").read_text())
     t = np.asarray(got["t"], dtype=float)
     assert info["frames_without_imu"] == pytest.approx(np.count_nonzero((t > drop[0]) & (t < drop[1])), abs=2)

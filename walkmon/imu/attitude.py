@@ -451,7 +451,10 @@ class ImuAttitudeFilter:
         """Turn the nominal orientation by ``rotation`` (a body-frame rotation measured otherwise: the camera's
         between two frames while no gyroscope sample arrives), its error growing by ``std_rad`` per axis, and
         move the clock to ``t_s`` without propagating the gyroscope over the time between."""
-        dR = np.asarray(rotation, dtype=float)
+        # the nearest rotation (polar decomposition): a product such as R.T @ R_start @ turn is a rotation only to
+        # rounding, and taken as given each frame its error grew threefold per frame (NaN within 30 frames)
+        u, _, vt = np.linalg.svd(np.asarray(rotation, dtype=float))
+        dR = u @ np.diag([1.0, 1.0, float(np.sign(np.linalg.det(u @ vt)))]) @ vt
         self._rate_unknown = True  # the rate before the gap is not the rate after it (advance_to)
         self.rotation_world = self.rotation_world @ dR
         self._rotation_gyro = self._rotation_gyro @ dR
