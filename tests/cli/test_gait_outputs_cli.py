@@ -54,9 +54,12 @@ def test_analyze_accelerometer_only(tmp_path: Path, capsys: pytest.CaptureFixtur
 
 
 def test_analyze_acc_file_with_a_video_or_bad_rows_is_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a repeated row is skipped and counted as imu.csv's are (it was refused for it: 'must strictly increase');
+    # t in whole seconds is not an IMU's: refused for that, one line
     (tmp_path / "bad.csv").write_text("t,ax,ay,az\n0,1,2,3\n0,1,2,3\n" + "".join(f"{i},1,2,3\n" for i in range(1, 12)))
     assert main(["analyze", "--imu", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "o")]) == 2
-    assert "strictly increase" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "sampled at 10 Hz or more" in err and len(err.strip().splitlines()) == 1, err
 
 
 def test_indicators_writes_timeline_and_segments_and_paper_mode_keeps_the_whole_recording(tmp_path: Path) -> None:
