@@ -38,3 +38,9 @@ def test_gaps_shorter_than_asked_are_not_listed_and_short_inputs_have_none() -> 
     assert [b - a for a, b in gaps(t, min_s=1.0)] == pytest.approx([2.02], abs=1e-6)
     assert gaps([0.0, 1.0]) == [] and sampling_rate_hz([0.0]) == 0.0
     assert sampling_rate_hz([0.0, 0.5]) == pytest.approx(2.0)
+
+
+def test_a_gap_exactly_as_long_as_asked_is_listed() -> None:
+    """'at least min_s' (review: a 1.0 s gap was left out with min_s=1.0); binary-exact times."""
+    t = np.r_[np.arange(256) / 128.0, 255 / 128.0 + 1.0 + np.arange(128) / 128.0]
+    assert [b - a for a, b in gaps(t, min_s=1.0)] == [1.0]

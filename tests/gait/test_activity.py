@@ -1008,5 +1008,14 @@ def test_a_recording_whose_clock_jumps_by_months_is_refused_not_exhausted() -> N
     t = np.arange(0.0, 20.0, 0.01)
     t[1000:] += 1e7
     acc = np.tile([0.0, -9.81, 0.0], (t.size, 1))
-    with pytest.raises(InvalidInputError, match=r"clock jumps by 1e\+07 s after t=9\.99 s"):
+    with pytest.raises(InvalidInputError, match=r"longest gap, 1e\+07 s after t=9\.99 s .* a clock that jumped"):
         signals_from_imu(t, acc, np.zeros((t.size, 3)))
+
+
+def test_a_recording_longer_than_two_days_is_refused_without_blaming_its_clock() -> None:
+    """A real 49 h recording (no gap): refused (the analysis grid spans it), asked to be split, not told its clock
+    jumped (review: 'its clock jumps by 1 s')."""
+    t = np.arange(0.0, 49 * 3600.0, 1.0)
+    with pytest.raises(InvalidInputError, match="split it into recordings of at most that length") as exc:
+        signals_from_imu(t, np.tile([0.0, -9.81, 0.0], (t.size, 1)))
+    assert "jump" not in str(exc.value)

@@ -367,9 +367,11 @@ def _check(t: ArrayLike, *arrays: ArrayLike) -> NDArray[np.float64]:
     if span > MAX_SPAN_S:
         # the analysis grid spans the whole recording, gaps included (1e7 s: a MemoryError)
         i = int(np.argmax(np.diff(tt)))
-        msg = (f"the recording spans {span / 3600:.0f} h, more than {MAX_SPAN_S / 3600:.0f} h: its clock jumps by "
-               f"{tt[i + 1] - tt[i]:.6g} s after t={tt[i] - tt[0]:.6g} s (from its first sample); split it there "
-               "or fix its times")
+        jump = float(tt[i + 1] - tt[i])
+        where = (f"its longest gap, {jump:.6g} s after t={tt[i] - tt[0]:.6g} s (from its first sample), may be a clock "
+                 "that jumped: fix its times or split it there" if jump > 0.5 * (span - MAX_SPAN_S)
+                 else "split it into recordings of at most that length")
+        msg = f"the recording spans {span / 3600:.0f} h, more than {MAX_SPAN_S / 3600:.0f} h: {where}"
         raise InvalidInputError(msg)
     for a in arrays:
         arr = np.asarray(a, dtype=float)
