@@ -32,9 +32,8 @@ first 200 gyroscope samples: each second's accelerometer squeezed into its first
 a second with none (karma.mp4: bursts of 196-200 samples starting 0.99-1.01 s apart). Interpolated as they came,
 every step the accelerometer saw would be timed up to half a second early and a straight line would fill the
 other half: the cadence of a walk filmed on a HERO5 read from nonsense. A stream whose samples come in bursts
-faster than 1.5 x its rate over whole bursts is re-timed, each burst spread evenly from its first sample to the
-next burst's (the last over its share of the rate); a stream with real gaps (its rate within a burst the rate
-over the bursts) is left as it is.
+faster than 1.5 x its rate over whole bursts, on consecutive gyroscope times, is re-timed: each burst spread
+from its first sample at the stream's own rate; a stream with dropouts of its own is left as it is.
 
 The clock: the timestamps are the telemetry track's, which starts with the video but is not frame-exact (a
 frame or two on GoPro). ``walkmon analyze`` estimates the remaining offset from gyro vs visual rates
@@ -180,7 +179,7 @@ def recording_from_normalized(
 
     tg, gyro = _strictly_increasing(np.asarray(t_gyro_s, float), np.asarray(gyro_dps, float).reshape(-1, 3))
     ta, accel = _strictly_increasing(np.asarray(t_accel_s, float), np.asarray(accel_m_s2, float).reshape(-1, 3))
-    tg, ta = spread_bursts(tg), spread_bursts(ta)
+    ta = spread_bursts(ta, tg)  # a slower accelerometer given the gyroscope's times (HERO5)
     if len(tg) < _MIN_SAMPLES or len(ta) < 2:
         msg = f"{source}: {len(tg)} gyroscope and {len(ta)} accelerometer samples; need a gyroscope and an accelerometer"
         raise InvalidInputError(msg)
@@ -194,32 +193,42 @@ def recording_from_normalized(
     return ImuRecording(np.ascontiguousarray(tg), np.radians(gyro) @ M.T, accel_at_g @ M.T)
 
 
-def spread_bursts(t_s: NDArray[np.float64], min_burst: int = 8) -> NDArray[np.float64]:
-    """A stream's sample times with squeezed payloads spread out (see the module text): bursts are runs of
-    samples whose intervals are at most 10 x the median one; when there are three or more, each of at least
-    ``min_burst`` samples, starting at regular times (every span from one burst's first sample to the next
-    one's within 20 % of their median: payloads) and the rate within them is over 1.5 x the rate over whole
-    bursts, each burst's samples are spread evenly from its first sample to the next burst's, the last one's at
-    the rate over the others. Otherwise (a dropout) the times as they are."""
+def spread_bursts(t_s: NDArray[np.float64], reference_s: NDArray[np.float64] | None = None,
+                  min_burst: int = 8) -> NDArray[np.float64]:
+    """A stream's sample times with squeezed payloads spread out (see the module text), else as they are.
+
+    Squeezed payloads have a signature: bursts (runs of intervals at most 10 x the median one), three or more of
+    at least ``min_burst`` samples, whose samples carry *consecutive* times of the other stream (``reference_s``,
+    the gyroscope's: telemetry-parser gave the slower stream the faster one's times) while that stream samples on
+    between the bursts, and within which the rate is over 1.5 x the rate over whole bursts (the median over
+    bursts of samples per span from one burst's first sample to the next one's: a missing payload's doubled span
+    does not count). Each burst's samples are then spread from its first sample at that rate. A stream with
+    dropouts of its own (its times not the other's) keeps its times (review: re-timed by 0.4 s when the rate
+    ratio was the only test)."""
     t = np.asarray(t_s, dtype=float)
-    if t.size < 2 * min_burst:
+    if reference_s is None or t.size < 3 * min_burst:
         return t
+    ref = np.asarray(reference_s, dtype=float)
     d = np.diff(t)
     step = float(np.median(d))
     cuts = np.flatnonzero(d > 10.0 * step) + 1
-    if step <= 0 or cuts.size == 0:
+    if step <= 0 or cuts.size < 2 or ref.size < 2:
         return t
+    idx = np.clip(np.searchsorted(ref, t), 0, ref.size - 1)
+    if not np.allclose(ref[idx], t, rtol=0.0, atol=1e-9):
+        return t  # not the other stream's times
     starts, ends = np.r_[0, cuts], np.r_[cuts, t.size]
     n = ends - starts
-    spans = np.diff(t[starts])
-    rate = float(np.sum(n[:-1]) / np.sum(spans))
-    regular = spans.size >= 2 and bool(np.all(np.abs(spans - np.median(spans)) <= 0.2 * np.median(spans)))
-    if not regular or n.min() < min_burst or 1.0 / step < 1.5 * rate:
-        return t  # gaps between runs at the stream's own rate (a dropout), not squeezed payloads
+    within = np.ones(t.size - 1, dtype=bool)
+    within[cuts - 1] = False
+    if n.min() < min_burst or not np.all(np.diff(idx)[within] == 1) or not np.all(np.diff(idx)[~within] > 1):
+        return t
+    rate = float(np.median(n[:-1] / np.diff(t[starts])))
+    if 1.0 / step < 1.5 * rate:
+        return t
     out = np.empty_like(t)
-    for k, (i0, i1) in enumerate(zip(starts, ends, strict=True)):
-        span = spans[k] if k < spans.size else (i1 - i0) / rate
-        out[i0:i1] = t[i0] + span * np.arange(i1 - i0) / (i1 - i0)
+    for i0, i1 in zip(starts, ends, strict=True):
+        out[i0:i1] = t[i0] + np.arange(i1 - i0) / rate
     return out
 
 

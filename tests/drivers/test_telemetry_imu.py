@@ -67,9 +67,13 @@ def test_accelerometer_bursts_of_a_hero5_payload_are_spread_over_it() -> None:
                             0.5 * np.cos(2 * np.pi * 0.9 * rec.t_s)])
     assert rec.t_s[-1] > 4.9  # the last payload's samples spread over its second too
     assert np.abs(rec.accelerometer_m_s2 - want).max() < 0.01  # linear interpolation of 200 Hz samples
-    assert np.array_equal(spread_bursts(tg), tg)
-    dropout = np.r_[np.arange(0, 400), np.arange(600, 1000)] / 200.0  # 1 s without samples at the same rate
-    assert np.array_equal(spread_bursts(dropout), dropout)
+    # a payload lost (the third): the others are spread as before, the lost second stays empty
+    lost = np.r_[given_t[:400], given_t[600:]]
+    np.testing.assert_allclose(spread_bursts(lost, tg), np.r_[true_t[:400], true_t[600:]], atol=1e-9)
+    assert np.array_equal(spread_bursts(tg, tg), tg)  # no bursts
+    # a 200 Hz stream of its own with a 0.4 s dropout every second (times not the gyroscope's): left as it is
+    own = np.concatenate([p + np.arange(120) / 200.0 for p in range(5)]) + 0.0013
+    assert np.array_equal(spread_bursts(own, tg), own)
 
 
 def test_a_file_without_telemetry_is_a_one_line_error(tmp_path: Path) -> None:

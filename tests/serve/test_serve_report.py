@@ -86,3 +86,17 @@ def test_since_spans(since: str, days: float) -> None:
     assert parse_since(since).total_seconds() == pytest.approx(days * 86400)
     with pytest.raises(ValueError, match="positive span"):
         parse_since("-" + since)
+
+
+def test_the_timeline_curve_breaks_at_a_gap_of_the_recording() -> None:
+    """A timeline has no rows inside a gap of the recording (nothing measured there); the pitch and roll curves
+    must not draw a line across it as if measured (found in review)."""
+    import re
+
+    from walkmon.views.svg import timeline_svg
+
+    t = [float(v) for v in [*range(1, 6), *range(12, 17)]]
+    hops = {"t_s": t, "activity": ["walking"] * 10, "label": ["normal"] * 10, "walking": [True] * 10,
+            "pitch": [1.0] * 10, "roll": [0.5] * 10}
+    svg = str(timeline_svg({"hops": hops, "alerts": [], "thresholds": {}, "hop_s": 1.0}))
+    assert len(re.findall(r"<polyline", svg)) == 4  # pitch and roll, each in two pieces

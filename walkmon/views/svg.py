@@ -127,6 +127,20 @@ def _finite(vals: Sequence[float | None]) -> list[float]:
     return [float(v) for v in vals if v is not None and math.isfinite(v)]
 
 
+def _broken_at_gaps(t: Sequence[float], vals: Sequence[Any], hop_s: float) -> tuple[list[float], list[Any]]:
+    """``t`` and ``vals`` with a missing value between two rows more than 1.5 hops apart, so that the line breaks
+    there: a timeline has no rows inside a gap of the recording (nothing measured), which a line would bridge."""
+    tt: list[float] = []
+    vv: list[Any] = []
+    for i, (ti, v) in enumerate(zip(t, vals, strict=True)):
+        if i and ti - t[i - 1] > 1.5 * hop_s:
+            tt.append(0.5 * (ti + t[i - 1]))
+            vv.append(None)
+        tt.append(ti)
+        vv.append(v)
+    return tt, vv
+
+
 def timeline_svg(tl: dict[str, Any], *, width: int = 900, title: str = "Session timeline") -> Markup:
     """Pitch and roll posture per hop against the alert thresholds, the activity/posture band, alert markers.
 
@@ -194,12 +208,14 @@ def timeline_svg(tl: dict[str, Any], *, width: int = 900, title: str = "Session 
     # pitch panel
     out.append(pp.frame("pitch [deg]", _ticks(*p_lim, n=4)))
     out.append(pp.hline(-lean, _PITCH, f"lean-forward alert at {-lean:g} deg"))
-    out.append(_polyline([pp.x(v) for v in t], [pp.y(v) for v in pitch], _PITCH))
+    tb, pitch_b = _broken_at_gaps(t, pitch, hop_s)
+    out.append(_polyline([pp.x(v) for v in tb], [pp.y(v) for v in pitch_b], _PITCH))
     # roll panel
     out.append(rp.frame("roll [deg]", _ticks(*r_lim, n=4)))
     out.append(rp.hline(shoulder, _ROLL, f"shoulder-down alert at +-{shoulder:g} deg"))
     out.append(rp.hline(-shoulder, _ROLL, ""))
-    out.append(_polyline([rp.x(v) for v in t], [rp.y(v) for v in roll], _ROLL))
+    tb, roll_b = _broken_at_gaps(t, roll, hop_s)
+    out.append(_polyline([rp.x(v) for v in tb], [rp.y(v) for v in roll_b], _ROLL))
     # alerts: raised = filled triangle, cleared = hollow
     for ev in tl.get("alerts", []):
         if ev.get("t_s") is None:
