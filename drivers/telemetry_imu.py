@@ -202,7 +202,8 @@ def spread_bursts(t_s: NDArray[np.float64], reference_s: NDArray[np.float64] | N
     the gyroscope's: telemetry-parser gave the slower stream the faster one's times) while that stream samples on
     between the bursts, and within which the rate is over 1.5 x the rate over whole bursts (the median over
     bursts of samples per span from one burst's first sample to the next one's: a missing payload's doubled span
-    does not count). Each burst's samples are then spread from its first sample at that rate. A stream with
+    does not count). Each burst's samples are then spread from its first sample at that rate, never past the
+    next burst's start. A stream with
     dropouts of its own (its times not the other's) keeps its times (review: re-timed by 0.4 s when the rate
     ratio was the only test)."""
     t = np.asarray(t_s, dtype=float)
@@ -214,7 +215,7 @@ def spread_bursts(t_s: NDArray[np.float64], reference_s: NDArray[np.float64] | N
     cuts = np.flatnonzero(d > 10.0 * step) + 1
     if step <= 0 or cuts.size < 2 or ref.size < 2:
         return t
-    idx = np.clip(np.searchsorted(ref, t), 0, ref.size - 1)
+    idx = np.clip(np.searchsorted(ref, t - 1e-9), 0, ref.size - 1)
     if not np.allclose(ref[idx], t, rtol=0.0, atol=1e-9):
         return t  # not the other stream's times
     starts, ends = np.r_[0, cuts], np.r_[cuts, t.size]
@@ -227,8 +228,11 @@ def spread_bursts(t_s: NDArray[np.float64], reference_s: NDArray[np.float64] | N
     if 1.0 / step < 1.5 * rate:
         return t
     out = np.empty_like(t)
-    for i0, i1 in zip(starts, ends, strict=True):
-        out[i0:i1] = t[i0] + np.arange(i1 - i0) / rate
+    nxt = np.r_[t[starts[1:]], np.inf]
+    for i0, i1, t1 in zip(starts, ends, nxt, strict=True):
+        # at the rate, but within the burst's own span: a burst with more samples than rate x span (payloads of
+        # 196-200 samples over 0.99-1.01 s) must not reach past the next one's start (review: times went back)
+        out[i0:i1] = t[i0] + np.arange(i1 - i0) * min(1.0 / rate, (t1 - t[i0]) / (i1 - i0))
     return out
 
 

@@ -265,16 +265,29 @@ def analyze_angles(
 
 
 def measured_rows(model: ArrayLike | Sequence[str] | None, fused: ArrayLike | None = None) -> NDArray[np.bool_] | None:
-    """The rows of a video's angles that measure something (None: no ``model`` column, every row does): not the
-    frames the estimator held (``model`` ``hold``: the last orientation repeated over a lens cap, a repeated,
-    featureless or lost frame), unless an IMU carried them (``fused``: angles.csv's ``visual_used`` column, the
-    session log's ``fused``; any value there means the fusion gave every row). The session analysis leaves the
-    held rows out, so a held stretch of a second or more is a gap of the recording (unknown, no steps, no bout
-    across it, no timeline row): held through a 4 s lens cap mid-walk, the flat angles read as 4 s of standing."""
-    if model is None or fused is not None:
+    """The rows of a video's angles that measure something (None: no ``model`` column, or no held row: every row
+    does): not the frames the estimator held (``model`` ``hold``: the last orientation repeated over a lens cap, a
+    repeated, featureless or lost frame), unless an IMU carried them: ``fused`` per row (1: the fusion gave the
+    row, as the session log's and ``sessions export``'s ``fused`` column says; 0 or NaN: the camera's alone).
+    The session analysis leaves the held rows out, so a held stretch of a second or more is a gap of the
+    recording (unknown, no steps, no bout across it, no timeline row): held through a 4 s lens cap mid-walk, the
+    flat angles read as 4 s of standing. Fewer than 10 rows left: InvalidInputError (nothing measured to
+    analyse). An offline fused analysis (``analyze VIDEO --imu``) passes no ``model``: the fusion carries every
+    row (a frame held during an IMU dropout is then held, not left out: not handled)."""
+    if model is None:
         return None
     held = np.asarray([str(m) == "hold" for m in np.asarray(model).reshape(-1)], dtype=bool)
-    return ~held if held.any() else None
+    if fused is not None:
+        f = np.asarray(fused, dtype=float).reshape(-1)
+        if f.shape == held.shape:
+            held &= ~(f > 0.5)
+    if not held.any():
+        return None
+    if int((~held).sum()) < 10:
+        msg = (f"only {int((~held).sum())} of {held.size} frames were measured: the rotation estimator held the "
+               "others (a covered lens, featureless, repeated or lost frames); nothing to analyse")
+        raise InvalidInputError(msg)
+    return ~held
 
 
 def _gait_stage(
@@ -306,7 +319,8 @@ def _gait_stage(
 
         absolute = (np.column_stack([np.asarray(columns["pitch_abs"], float), np.asarray(columns["roll_abs"], float)])
                     if "pitch_abs" in columns and "roll_abs" in columns else None)
-        keep = measured_rows(columns.get("model"), columns.get("visual_used"))
+        # a fused analysis (visual_used column): the IMU carried every row
+        keep = measured_rows(None if "visual_used" in columns else columns.get("model"))
         if keep is not None:
             t, a, absolute = t[keep], a[keep], None if absolute is None else absolute[keep]
         session = analyze_session(t, a, imu=imu_input, abs_angles_deg=absolute, baseline=base, settings=settings,
@@ -709,11 +723,11 @@ class Session:
         """The offline analysis of the session's frames (what ``walkmon report ID`` writes): indicators relative
         to its first standing calibration, if any, and the fused absolute angles when an IMU was fused."""
         t = np.asarray(self.frames["t_s"], dtype=float)
+        t0 = float(t[0]) if t.size else 0.0  # the session's start, held frames or not
         a = (np.column_stack([self.frames[c] for c in ("pitch", "yaw", "roll")]).astype(float) if t.size
              else np.empty((0, 3)))
         ok = np.all(np.isfinite(a), axis=1) if t.size else np.zeros(0, bool)
-        fused = np.asarray(self.frames["fused"], dtype=float) if t.size else np.zeros(0)
-        measured = measured_rows(self.frames["model"], fused if np.isfinite(fused).any() else None)
+        measured = measured_rows(self.frames["model"], self.frames["fused"]) if t.size else None
         if measured is not None:
             ok &= measured
         t, a = t[ok], a[ok]
@@ -729,7 +743,7 @@ class Session:
         r = self.record
         meta = {"session": self.id, "kind": r["kind"], "source": r["camera"], "started_utc": r["started_utc"],
                 "ended_utc": r["ended_utc"], "end_reason": r["end_reason"], "frames": int(t.size)}
-        return analyze_angles(t - t[0], a, baseline=baseline, abs_angles_deg=absolute, reference_deg=reference,
+        return analyze_angles(t - t0, a, baseline=baseline, abs_angles_deg=absolute, reference_deg=reference,
                               meta=meta)
 
 

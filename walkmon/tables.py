@@ -349,14 +349,16 @@ def _keep_plausible(
     keep, why = plausible_rows(t, gyro, acc)
     # rows earlier than a row before them (repeated time stamps, a logger writing rows twice, are dropped as
     # time_back but are no clock reset: review found 1 % of them refusing a file)
-    finite_t = np.where(np.isfinite(t), t, -np.inf)
-    earlier = finite_t[1:] < np.maximum.accumulate(finite_t)[:-1] if t.size > 1 else np.zeros(0, bool)
+    # ... among the rows plausible but for their time: a corrupt row's far-future time is no reset (review)
+    values_ok, _ = plausible_rows(np.arange(t.size, dtype=float), gyro, acc)
+    tt = t[values_ok & np.isfinite(t)]
+    earlier = tt[1:] < np.maximum.accumulate(tt)[:-1] if tt.size > 1 else np.zeros(0, bool)
     if int(earlier.sum()) > max(1, 0.01 * n_total):
         # a clock reset (or files joined): the rows after it are not a few late samples to drop
         i = int(np.argmax(earlier))
-        msg = (f"{path}: the time goes back by {np.max(finite_t[: i + 1]) - t[i + 1]:.6g} s after "
-               f"t={np.max(finite_t[: i + 1]):.6g} s ({int(earlier.sum())} of {n_total} rows earlier than a row "
-               "before them): a clock reset or joined files; split the file there")
+        top = float(np.max(tt[: i + 1]))
+        msg = (f"{path}: the time goes back by {top - tt[i + 1]:.6g} s after t={top:.6g} s ({int(earlier.sum())} of "
+               f"{n_total} rows earlier than a row before them): a clock reset or joined files; split the file there")
         raise InvalidInputError(msg)
     rejected.update(why)
     counts = ", ".join(f"{k} {v}" for k, v in sorted(rejected.items()))

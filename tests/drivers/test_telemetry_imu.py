@@ -71,6 +71,16 @@ def test_accelerometer_bursts_of_a_hero5_payload_are_spread_over_it() -> None:
     lost = np.r_[given_t[:400], given_t[600:]]
     np.testing.assert_allclose(spread_bursts(lost, tg), np.r_[true_t[:400], true_t[600:]], atol=1e-9)
     assert np.array_equal(spread_bursts(tg, tg), tg)  # no bursts
+    # payloads of 196-200 samples over 0.99-1.01 s (karma.mp4's spread): times still increase, the signal right
+    rng = np.random.default_rng(3)
+    spans, counts = rng.uniform(0.99, 1.01, 20), rng.integers(196, 201, 20)
+    starts = np.r_[0.0, np.cumsum(spans)[:-1]]
+    tg2 = np.arange(0.0, starts[-1] + 1.2, 0.0025)
+    given2 = np.concatenate([tg2[np.searchsorted(tg2, s0 - 1e-9) :][:n] for s0, n in zip(starts, counts, strict=True)])
+    spread = spread_bursts(given2, tg2)
+    truth2 = np.concatenate([s0 + np.arange(n) * (sp / n) for s0, sp, n in zip(starts, spans, counts, strict=True)])
+    assert np.all(np.diff(spread) > 0)
+    assert np.abs(spread - truth2).max() < 0.03  # within 3 % of a payload (each spread at the median rate)
     # a 200 Hz stream of its own with a 0.4 s dropout every second (times not the gyroscope's): left as it is
     own = np.concatenate([p + np.arange(120) / 200.0 for p in range(5)]) + 0.0013
     assert np.array_equal(spread_bursts(own, tg), own)

@@ -259,3 +259,16 @@ def test_a_clock_reset_mid_file_is_one_line_not_half_the_rows_dropped(tmp_path: 
     imu.write_text(f"t,{'gx,gy,gz,' if gyro else ''}ax,ay,az\n" + "".join(rows))
     res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
     res.one_line_error("the time goes back by 9.99 s after t=9.99 s", "split the file there")
+
+
+def test_repeated_rows_and_a_corrupt_row_are_no_clock_reset(tmp_path: Path, cli) -> None:
+    """Review of the clock-reset rule: 2.5 % of the rows written twice plus one late row, and one garbage row
+    (a far-future time and an impossible acceleration), are rows to skip, not a reset to refuse."""
+    rows = _still_rows(2000)
+    rows = [r for i, r in enumerate(rows) for _ in range(2 if i % 40 == 0 else 1)]
+    rows[1000] = "4.00," + rows[1000].split(",", 1)[1]  # one row 5 s late
+    rows[1500] = "99999.0,0,0,0,1000000,0,0\n"
+    imu = tmp_path / "dups.csv"
+    imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(rows))
+    res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
+    assert res.rc == 0, res.err

@@ -71,3 +71,21 @@ def test_a_lens_cap_mid_walk_is_unknown_not_standing(capped: Path, tmp_path: Pat
     assert any(float(r["t"]) < CAP[0] for r in walking) and any(float(r["t"]) > CAP[1] for r in walking)
     gait = json.loads((out / "indicators.json").read_text())
     assert all(b["end_s"] <= CAP[0] + 0.1 or b["start_s"] >= CAP[1] - 0.1 for b in gait["bouts"]), gait["bouts"]
+
+
+def test_held_rows_are_left_out_unless_an_imu_carried_them() -> None:
+    """measured_rows against its rule: a held row (model 'hold') is left out, unless its fused flag is 1 (a live
+    session's camera-only frames log fused 0); a recording with fewer than 10 measured rows is refused in words
+    (review: an all-black video failed with 'need at least 10 samples, got 0')."""
+    from walkmon.api import measured_rows
+    from walkmon.errors import InvalidInputError
+
+    model = ["identity"] + ["rotation"] * 19 + ["hold"] * 10 + ["rotation"] * 10
+    keep = measured_rows(model)
+    assert keep is not None and keep.tolist() == [True] * 20 + [False] * 10 + [True] * 10
+    fused = [1.0] * 25 + [0.0] * 15  # the IMU carried the first five held frames, not the last five
+    keep = measured_rows(model, fused)
+    assert keep is not None and keep.tolist() == [True] * 25 + [False] * 5 + [True] * 10
+    assert measured_rows(["rotation"] * 40) is None and measured_rows(None) is None
+    with pytest.raises(InvalidInputError, match="only 5 of 40 frames were measured"):
+        measured_rows(["rotation"] * 5 + ["hold"] * 35)

@@ -109,7 +109,10 @@ def run(args: argparse.Namespace) -> int:
     absolute = (np.column_stack([table["pitch_abs"], table["roll_abs"]])
                 if "pitch_abs" in table and "roll_abs" in table else None)
     model = read_text_column(path, "model")
-    keep = measured_rows(model, table.get("visual_used")) if model is not None and len(model) == len(t) else None
+    # a fused analyze's angles.csv (visual_used): the IMU carried every row; sessions export: fused per row
+    keep = (measured_rows(model, table.get("fused"))
+            if args.mode == "walkmon" and model is not None and len(model) == len(t) and "visual_used" not in table
+            else None)
     if keep is not None:  # the frames the estimator held measure nothing (see measured_rows), as in analyze
         t, angles, absolute = t[keep], angles[keep], None if absolute is None else absolute[keep]
     json_path, html_path, ind = gait_outputs(

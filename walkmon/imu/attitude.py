@@ -453,7 +453,8 @@ class ImuAttitudeFilter:
         move the clock to ``t_s`` without propagating the gyroscope over the time between."""
         # the nearest rotation (polar decomposition): a product such as R.T @ R_start @ turn is a rotation only to
         # rounding, and taken as given each frame its error grew threefold per frame (NaN within 30 frames)
-        u, _, vt = np.linalg.svd(np.asarray(rotation, dtype=float))
+        r = np.asarray(rotation, dtype=float)
+        u, _, vt = np.linalg.svd(r if np.all(np.isfinite(r)) else np.eye(3))  # not finite: held
         dR = u @ np.diag([1.0, 1.0, float(np.sign(np.linalg.det(u @ vt)))]) @ vt
         self._rate_unknown = True  # the rate before the gap is not the rate after it (advance_to)
         self.rotation_world = self.rotation_world @ dR
