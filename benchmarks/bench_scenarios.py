@@ -294,8 +294,8 @@ def main(argv: list[str] | None = None) -> int:
          + (" **Fused**: every clip's estimates fused with the camera's own IMU as `walkmon analyze VIDEO --imu` "
             "fuses them (walkmon.imu.recordings.fused_columns; the IMU simulated from the clip's motion with a real "
             "part's errors: scale 0.5 %, misalignment 0.005 rad, bias walk, noise, footstep vibration; camera axes, "
-            "the video's clock). The fused output is claimed for every frame: nothing is flagged (met* then differs from met "
-            "only in not asking the detrended target)."
+            "the video's clock). The fused output is claimed for every frame: nothing is flagged (met* then differs "
+            "from met only in not asking the detrended target)."
             if args.fused else "")),
         "",
         ("Degrees, pitch/yaw/roll, against truth.csv relative to the first frame. raw: RMSE over every frame; "

@@ -63,8 +63,8 @@ from walkmon.errors import (
     SourceError,
 )
 
-__all__ = ["CAMERA_FROM_TELEMETRY", "TelemetryImu", "TelemetryImuFile", "read_telemetry_imu", "recording_from_normalized",
-           "spread_bursts"]
+__all__ = ["CAMERA_FROM_TELEMETRY", "TelemetryImu", "TelemetryImuFile", "read_telemetry_imu",
+           "recording_from_normalized", "spread_bursts"]
 
 #: telemetry-parser's normalised IMU axes -> walkmon camera axes (``v_camera = M @ v_normalised``).
 CAMERA_FROM_TELEMETRY = np.array([[0.0, -1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])

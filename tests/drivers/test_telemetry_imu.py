@@ -60,7 +60,8 @@ def test_accelerometer_bursts_of_a_hero5_payload_are_spread_over_it() -> None:
     M = CAMERA_FROM_TELEMETRY
     tg = np.arange(5 * 400) / 400.0
     true_t = np.arange(5 * 200) / 200.0  # when the accelerometer really sampled
-    f_cam = np.column_stack([np.sin(2 * np.pi * 1.8 * true_t), -9.81 + 0 * true_t, 0.5 * np.cos(2 * np.pi * 0.9 * true_t)])
+    f_cam = np.column_stack([np.sin(2 * np.pi * 1.8 * true_t), -9.81 + 0 * true_t,
+                             0.5 * np.cos(2 * np.pi * 0.9 * true_t)])
     given_t = np.concatenate([tg[p * 400 : p * 400 + 200] for p in range(5)])  # squeezed as the parser gives them
     rec = recording_from_normalized(tg, np.zeros((tg.size, 3)), given_t, f_cam @ M)
     want = np.column_stack([np.sin(2 * np.pi * 1.8 * rec.t_s), np.full(rec.t_s.size, -9.81),

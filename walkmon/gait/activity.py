@@ -319,9 +319,10 @@ def _resample(t: NDArray[np.float64], x: NDArray[np.float64], rate_hz: float) ->
     100 Hz to 50, 60, 128 and 200 Hz (band-limited, scipy's resample_poly) gave bouts whose cadences differed by
     up to 8 % (and one 63 steps/min or none).
 
-    So a recording faster than ``rate_hz`` (its rate: :func:`walkmon.sampling.sampling_rate_hz`, gaps left out) is interpolated linearly onto a
-    uniform grid k times finer than ``rate_hz`` and at least twice the recording's rate (gaps bridged by a
-    straight line, as before), low-passed there (4th-order Butterworth, zero phase, at ``_ANTI_ALIAS_FRACTION``
+    So a recording faster than ``rate_hz`` (its rate: :func:`walkmon.sampling.sampling_rate_hz`, gaps left out)
+    is interpolated linearly onto a uniform grid k times finer than ``rate_hz`` and at least twice the
+    recording's rate (gaps bridged by a straight line, as before; :func:`segment` then takes them for unknown),
+    low-passed there (4th-order Butterworth, zero phase, at ``_ANTI_ALIAS_FRACTION``
     x ``rate_hz``, 20 Hz: well above the gait band) and decimated by k. At twice its rate the linear
     interpolation's images of the recording's content (at its rate +- up to half of it) stay above the filter's
     cut-off on the fine grid; on a grid only 50 Hz above its rate a 48 Hz vibration in a 100 Hz recording folded

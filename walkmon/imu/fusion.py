@@ -263,7 +263,8 @@ class CameraImuFusion:
         accel = self._R_ci @ np.asarray(accelerometer_m_s2, dtype=float)
         tv = t_s + self.settings.time_offset_s
         f = self._filter
-        if self._last_imu_t is not None and tv - self._last_imu_t > max(self.settings.max_imu_gap_s, _CORE_RESTART_GAP_S):
+        restart_after_s = max(self.settings.max_imu_gap_s, _CORE_RESTART_GAP_S)
+        if self._last_imu_t is not None and tv - self._last_imu_t > restart_after_s:
             self._after_gap(tv)
         # a frame may have taken the filter past this sample's time (live: an IMU a few ms late): its rate then
         # only becomes the rate from here on (advance_to raised 'time went backwards': the live fusion failed)
