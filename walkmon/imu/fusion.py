@@ -394,10 +394,11 @@ class CameraImuFusion:
         f = self._filter
         prev, self._prev_visual = self._prev_visual, Rv
         self._last_visual = None  # the increments' chain re-anchors once the IMU is back
-        held = Rv is None or prev is None
-        turn = np.eye(3) if Rv is None or prev is None else prev.T @ Rv
-        # held: the orientation as the gyroscope left it (its samples after the last frame are measurements)
-        start = f.rotation_world if held or self._prev_rotation is None else self._prev_rotation
+        if Rv is None or prev is None:  # held: as the gyroscope left it (its samples after the last frame count)
+            turn, start = np.eye(3), f.rotation_world
+        else:
+            turn = prev.T @ Rv
+            start = f.rotation_world if self._prev_rotation is None else self._prev_rotation
         f.rotate_by(f.rotation_world.T @ start @ turn, float(np.radians(self.settings.visual_std_deg)), t_s)
         if not self._has_reference:
             f.set_reference()
