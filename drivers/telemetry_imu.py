@@ -203,9 +203,8 @@ def spread_bursts(t_s: NDArray[np.float64], reference_s: NDArray[np.float64] | N
     between the bursts, and within which the rate is over 1.5 x the rate over whole bursts (the median over
     bursts of samples per span from one burst's first sample to the next one's: a missing payload's doubled span
     does not count). Each burst's samples are then spread from its first sample at that rate, never past the
-    next burst's start. A stream with
-    dropouts of its own (its times not the other's) keeps its times (review: re-timed by 0.4 s when the rate
-    ratio was the only test)."""
+    next burst's start. A stream with dropouts of its own (its times not the other's) keeps its times (review:
+    re-timed by 0.4 s when the rate ratio was the only test)."""
     t = np.asarray(t_s, dtype=float)
     if reference_s is None or t.size < 3 * min_burst:
         return t
