@@ -30,6 +30,13 @@ def _intervals(t_s: ArrayLike) -> NDArray[np.float64]:
     return d[np.isfinite(d) & (d > 0)]
 
 
+def _threshold(d: NDArray[np.float64]) -> float:
+    """:func:`gap_threshold_s` of the intervals ``d`` (computed once by each public function)."""
+    if d.size < 2:
+        return float("inf")
+    return GAP_FACTOR * float(np.mean(d[d <= np.quantile(d, 0.99)]))
+
+
 def longest_usual_interval_s(t_s: ArrayLike) -> float:
     """The 99th percentile of the intervals between samples (s; inf with fewer than two intervals): the longest
     a recording usually leaves between two samples, a bursty logger's pauses included, its gaps not."""
@@ -38,12 +45,9 @@ def longest_usual_interval_s(t_s: ArrayLike) -> float:
 
 
 def gap_threshold_s(t_s: ArrayLike) -> float:
-    """The shortest interval between two samples that is a gap (s); inf with fewer than two intervals."""
-    d = _intervals(t_s)
-    if d.size < 2:
-        return float("inf")
-    usual = d[d <= longest_usual_interval_s(t_s)]
-    return GAP_FACTOR * float(np.mean(usual))
+    """The shortest interval between two samples that is a gap (s): over :data:`GAP_FACTOR` x the mean of the
+    intervals up to :func:`longest_usual_interval_s`; inf with fewer than two intervals."""
+    return _threshold(_intervals(t_s))
 
 
 def sampling_rate_hz(t_s: ArrayLike) -> float:
@@ -52,7 +56,7 @@ def sampling_rate_hz(t_s: ArrayLike) -> float:
     d = _intervals(t_s)
     if d.size == 0:
         return 0.0
-    kept = d[d <= gap_threshold_s(t_s)]
+    kept = d[d <= _threshold(d)]
     return 1.0 / float(np.mean(kept if kept.size else d))
 
 
@@ -63,4 +67,4 @@ def gaps(t_s: ArrayLike, min_s: float = 0.0) -> list[tuple[float, float]]:
     if t.size < 3:
         return []
     d = np.diff(t)
-    return [(float(t[i]), float(t[i + 1])) for i in np.flatnonzero((d > gap_threshold_s(t)) & (d >= min_s))]
+    return [(float(t[i]), float(t[i + 1])) for i in np.flatnonzero((d > _threshold(_intervals(t))) & (d >= min_s))]
