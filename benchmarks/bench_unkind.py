@@ -61,7 +61,7 @@ from walkmon.simulate.scoring import (
     true_posture_segments,
 )
 from walkmon.simulate.unkind import UNKIND_WALKS, unkind_script
-from walkmon.tables import read_table
+from walkmon.tables import read_table, read_text_column
 
 RESULTS = Path(__file__).resolve().parent / "results"
 TARGETS = {"activity_pct": 95.0, "boundary_s": 1.5, "labels_pct": 95.0, "cadence_pct": 1.0}
@@ -182,14 +182,17 @@ def live_replay(out_dir: Path, truth: Truth) -> dict[str, int]:
     from walkmon.live.alerts import AlertStage  # noqa: PLC0415
 
     x = read_table(out_dir / "angles.csv", ["t", "pitch", "yaw", "roll"])
+    model = read_text_column(out_dir / "angles.csv", "model")
+    held = np.asarray(model if model is not None else [""] * len(x["t"])) == "hold"
     tt = truth.t
     act = np.asarray(truth.activity, dtype=object)
     lab = np.asarray(truth.label, dtype=object)
     stage = LiveIndicatorStage()
     alerts = AlertStage()
     out: Counter[str] = Counter()
-    for t, p, y, r in zip(x["t"], x["pitch"], x["yaw"], x["roll"], strict=True):
-        hop = stage.push(float(t), (float(p), float(y), float(r)))
+    for t, p, y, r, h in zip(x["t"], x["pitch"], x["yaw"], x["roll"], held, strict=True):
+        # a held frame measured nothing: walkmon live gives it to the stage as such (LivePipeline._process_frame)
+        hop = stage.push_unmeasured(float(t)) if h else stage.push(float(t), (float(p), float(y), float(r)))
         if hop is None:
             continue
         for e in alerts.push(hop):

@@ -89,3 +89,26 @@ def test_held_rows_are_left_out_unless_an_imu_carried_them() -> None:
     assert measured_rows(["rotation"] * 40) is None and measured_rows(None) is None
     with pytest.raises(InvalidInputError, match="only 5 of 40 frames were measured"):
         measured_rows(["rotation"] * 5 + ["hold"] * 35)
+
+
+def test_live_monitor_reads_a_lens_cap_as_unknown_not_standing(capped: Path, tmp_path: Path) -> None:
+    """The same covered lens through ``walkmon live`` (the clip replayed): the held frames measure nothing, so the
+    hops inside the cap say the activity is unknown (why in the reasons), never standing, and the walking before
+    and after it is found. Before, every held frame went into the live indicators as a real sample: the monitor
+    told a walking person 'standing' from 1.5 s into the cap on."""
+    from walkmon.live.session_log import list_sessions, open_database, read_session_table
+
+    data = tmp_path / "data"
+    assert main(["live", "--camera", f"file:{capped / 'capped.mp4'}", "--calib", str(capped / "camera.yaml"),
+                 "--data-dir", str(data), "--status", "none"]) == 0
+    (s,) = list_sessions(data)
+    conn = open_database(data, create=False)
+    hops = read_session_table(conn, s.id, "hops")
+    conn.close()
+    got = [(float(t), json.loads(j)) for t, j in zip(hops["t_s"], hops["json"], strict=True)]
+    inside = [(t, d["activity"], d["classification"]["reasons"]) for t, d in got if CAP[0] + 1.5 <= t <= CAP[1]]
+    assert inside and all(a == "unknown" for _, a, _ in inside), inside
+    assert all(any("nothing measured" in r for r in why) for _, _, why in inside), inside  # and why
+    assert not [t for t, d in got if CAP[0] <= t <= CAP[1] + 0.5 and d["activity"] == "standing"]
+    assert any(d["activity"] == "walking" for t, d in got if t < CAP[0])
+    assert any(d["activity"] == "walking" for t, d in got if t > CAP[1] + 2.0)

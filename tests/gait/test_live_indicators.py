@@ -438,3 +438,30 @@ def test_a_trunk_that_pitches_differently_left_and_right_raises_no_asymmetry_ale
     assert walking and all(not np.isfinite(r.step_asymmetry) for r in walking)  # not measured from the camera
     assert not any(r.label == "right_foot_drag" for r in walking)
 
+
+
+def test_unmeasured_frames_keep_the_hops_going_and_read_unknown_never_standing() -> None:
+    """Frames that measured nothing (push_unmeasured: a covered lens) give hops on time whose activity is unknown
+    once nothing was measured for max_gap_s, with no posture; a session that starts covered says so; and when
+    measuring resumes the stage waits 2 s before it names the activity again, then finds the walking."""
+    stage = LiveIndicatorStage()
+    hops = [h for h in (stage.push_unmeasured(i / FPS) for i in range(int(4 * FPS))) if h is not None]
+    assert [round(h.t_s, 3) for h in hops] == [1.0, 2.0, 3.0]
+    assert all(h.activity == "unknown" and not h.walking for h in hops)
+    assert all("nothing measured since the start" in h.reasons[0] for h in hops)
+
+    t, a = synthetic_walk(seconds_stand=3.0, seconds_walk=20.0)
+    covered = (t >= 10.0) & (t < 14.0)  # walking all along; the lens covered for 4 s
+    stage = LiveIndicatorStage()
+    got = {}
+    for ti, ai, c in zip(t, a, covered, strict=True):
+        h = stage.push_unmeasured(ti) if c else stage.push(ti, ai)
+        if h is not None:
+            got[round(h.t_s)] = h
+    assert got[9].activity == "walking"
+    for k in (12, 13):  # more than max_gap_s (1 s) into the cap
+        assert got[k].activity == "unknown" and "nothing measured for" in got[k].reasons[0]
+        assert all(math.isnan(v) for v in got[k].posture_deg)
+    assert got[14].activity == "unknown" and "measuring again" in got[14].reasons[0]
+    assert all(got[k].activity != "standing" for k in range(10, 17))
+    assert all(got[k].activity == "walking" for k in range(17, 23))

@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 
 from walkmon.consts import AXES
 from walkmon.gait.posture import Classification
+from walkmon.sampling import gaps
 
 __all__ = [
     "DEFAULT_LIVE_INDICATOR_SETTINGS",
@@ -93,6 +94,10 @@ class LiveIndicatorSettings:
     still_tilt_deg: float = 20.0
     #: Uniform resampling rate of the analysis, Hz.
     resample_hz: float = 30.0
+    #: Frames that measured nothing (:meth:`LiveIndicatorStage.push_unmeasured`: a covered lens, darkness) for
+    #: longer than this make the activity unknown, as the offline analysis' gaps
+    #: (:class:`walkmon.gait.activity.ActivitySettings` ``max_gap_s``), s.
+    max_gap_s: float = 1.0
     #: Deprecated, kept so that existing config files still load: labels now come from the one classifier
     #: (:mod:`walkmon.gait.posture`, the offline thresholds); these four values are not used.
     bend_pitch_deg: float = 10.0
@@ -104,7 +109,7 @@ class LiveIndicatorSettings:
 
     def __post_init__(self) -> None:
         for name in ("window_s", "hop_s", "posture_window_s", "walking_window_s", "calibration_s", "resample_hz",
-                     "still_tilt_deg"):
+                     "still_tilt_deg", "max_gap_s"):
             if not getattr(self, name) > 0:
                 msg = f"indicators.{name} must be > 0, got {getattr(self, name)}"
                 raise ValueError(msg)
@@ -320,6 +325,8 @@ class LiveIndicatorStage:
         self._t: collections.deque[float] = collections.deque()
         self._a: collections.deque[tuple[float, float, float]] = collections.deque()
         self._next_hop_t: float | None = None
+        self._last_push_t = -math.inf  # the last frame's time, measured or not (push_unmeasured)
+        self._activity_why = ""  # why _activity said unknown, when it is not the usual (read once by _compute)
         self._reference = np.zeros(3)
         self._calibrated = False
         self._calibration_pending = "start"
@@ -373,7 +380,7 @@ class LiveIndicatorStage:
         a = tuple(float(v) for v in angles_deg)
         if not all(math.isfinite(v) for v in a):
             return None
-        if self._t and t_s <= self._t[-1]:
+        if t_s <= self._last_push_t:
             return None  # out of order or repeated timestamp: ignore
         s = self.settings
         if self._a:  # yaw continuous across +-180 (a U-turn): a wrapped window reads a 360 deg "swing"
@@ -386,17 +393,51 @@ class LiveIndicatorStage:
         while self._t and self._t[0] < t_s - s.window_s:
             self._t.popleft()
             self._a.popleft()
+        self._last_push_t = float(t_s)
         if self._calibration_pending:
             self._try_calibrate()
         else:
             self._rereference_at_pause()
+        return self._compute(t_s) if self._hop_due(t_s) else None
+
+    def push_unmeasured(self, t_s: float) -> LiveIndicators | None:
+        """A frame that measured nothing (the rotation estimator held its orientation: a covered lens, darkness,
+        a featureless or repeated frame): no sample (held angles are flat and would read as standing), but the
+        hops go on; once nothing was measured for ``max_gap_s`` the activity is unknown (the offline analysis
+        leaves the same frames out: :func:`walkmon.api.measured_rows`)."""
+        if t_s <= self._last_push_t:
+            return None
+        self._last_push_t = float(t_s)
+        while self._t and self._t[0] < t_s - self.settings.window_s:
+            self._t.popleft()
+            self._a.popleft()
+        return self._compute(t_s) if self._hop_due(t_s) else None
+
+    def _hop_due(self, t_s: float) -> bool:
+        """Whether ``t_s`` crosses the next hop boundary (the first sample only starts the hop clock)."""
+        hop = self.settings.hop_s
         if self._next_hop_t is None:
-            self._next_hop_t = t_s + s.hop_s
-            return None
+            self._next_hop_t = t_s + hop
+            return False
         if t_s + 1e-9 < self._next_hop_t:
+            return False
+        self._next_hop_t += hop * max(1, math.floor((t_s - self._next_hop_t) / hop) + 1)
+        return True
+
+    def _unmeasured(self, t_now: float) -> LiveIndicators | None:
+        """The hop's indicators when nothing was measured for ``max_gap_s`` before ``t_now`` (else None)."""
+        last = self._t[-1] if self._t else -math.inf
+        if t_now - last <= self.settings.max_gap_s:
             return None
-        self._next_hop_t += s.hop_s * max(1, math.floor((t_s - self._next_hop_t) / s.hop_s) + 1)
-        return self._compute(t_s)
+        nan3 = (math.nan, math.nan, math.nan)
+        since = f"for {t_now - last:.1f} s" if math.isfinite(last) else "since the start"
+        why = f"nothing measured {since}: the camera's view held (covered, dark or featureless)"
+        return LiveIndicators(
+            t_s=float(t_now), window_s=float(self._t[-1] - self._t[0]) if self._t else 0.0, n_samples=len(self._t),
+            walking=False, gait_rms_deg=math.nan, cadence_spm=math.nan, swing_deg=nan3, inclination_deg=nan3,
+            posture_deg=nan3, step_asymmetry=math.nan, label="not_walking", reasons=(why,),
+            calibrated=self._calibrated, calibration=self._pending_events.popleft() if self._pending_events else None,
+            activity="unknown")
 
     def _try_calibrate(self) -> None:
         t = np.fromiter(self._t, float)
@@ -535,6 +576,9 @@ class LiveIndicatorStage:
         return self._signal.sosfiltfilt(sos, u, axis=0)
 
     def _compute(self, t_now: float) -> LiveIndicators:
+        gap = self._unmeasured(t_now)
+        if gap is not None:
+            return gap
         s = self.settings
         t = np.fromiter(self._t, float)
         a = np.asarray(self._a, dtype=float) - self._reference
@@ -571,6 +615,8 @@ class LiveIndicatorStage:
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
         walking = activity == "walking"
         label, reasons = "not_walking", (f"activity {activity}: no walking bout reaching the present",)
+        if self._activity_why:
+            reasons, self._activity_why = (self._activity_why,), ""
         if walking and span is not None:
             ind = self._classify_span(t, np.asarray(self._a, dtype=float), span)
             label, reasons = ind.classification.label, tuple(ind.classification.reasons)
@@ -745,6 +791,11 @@ class LiveIndicatorStage:
         from walkmon.gait.activity import segment, signals_from_angles  # noqa: PLC0415
 
         if len(t) < 10 or t[-1] - t[0] < 2.0:
+            return "unknown", None
+        found = gaps(t, self.settings.max_gap_s)
+        if found and t_now - found[-1][1] < 2.0:  # measuring again after a gap: as little to go on as at the start
+            a_, b_ = found[-1]
+            self._activity_why = f"measuring again after nothing measured for {b_ - a_:.1f} s"
             return "unknown", None
         try:
             seg = segment(signals_from_angles(t, a))
