@@ -91,16 +91,24 @@ def test_held_rows_are_left_out_unless_an_imu_carried_them() -> None:
         measured_rows(["rotation"] * 5 + ["hold"] * 35)
 
 
-def test_live_monitor_reads_a_lens_cap_as_unknown_not_standing(capped: Path, tmp_path: Path) -> None:
+def test_live_monitor_reads_a_lens_cap_as_unknown_not_standing(
+    capped: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """The same covered lens through ``walkmon live`` (the clip replayed): the held frames measure nothing, so the
-    hops inside the cap say the activity is unknown (why in the reasons), never standing, and the walking before
-    and after it is found. Before, every held frame went into the live indicators as a real sample: the monitor
+    hops inside the cap say the activity is unknown (why in the reasons, and on the wearer's status line), never
+    standing, and the walking before and after it is found. Before, every held frame went into the live indicators as a real sample: the monitor
     told a walking person 'standing' from 1.5 s into the cap on."""
     from walkmon.live.session_log import list_sessions, open_database, read_session_table
 
     data = tmp_path / "data"
     assert main(["live", "--camera", f"file:{capped / 'capped.mp4'}", "--calib", str(capped / "camera.yaml"),
-                 "--data-dir", str(data), "--status", "none"]) == 0
+                 "--data-dir", str(data), "--status", "lines"]) == 0
+    out = capsys.readouterr().err  # the status goes to stderr
+    status = {round(float(ln.split("s ")[0][2:])): ln for ln in out.splitlines()
+              if ln.startswith("t=")}
+    assert 9 in status, out[-2000:]
+    assert "unknown (nothing measured for" in status[9] and "standing" not in status[9], status[9]
+    assert " walking " in status[5], status[5]
     (s,) = list_sessions(data)
     conn = open_database(data, create=False)
     hops = read_session_table(conn, s.id, "hops")
