@@ -465,3 +465,41 @@ def test_unmeasured_frames_keep_the_hops_going_and_read_unknown_never_standing()
     assert got[14].activity == "unknown" and "measuring again" in got[14].reasons[0]
     assert all(got[k].activity != "standing" for k in range(10, 17))
     assert all(got[k].activity == "walking" for k in range(17, 23))
+
+
+def test_a_cap_longer_than_the_window_and_a_covered_start_give_no_posture_from_a_stride() -> None:
+    """Review cases: a cap longer than the 8 s window still says how long nothing was measured (the window's
+    trimming used to turn it into 'since the start'), and when measuring resumes, after such a cap or at a session
+    that starts covered, the first hops give no posture or cadence from the stride or less in the window (one
+    sample gave a posture of -1.9 deg roll mid-stride)."""
+    t, a = synthetic_walk(seconds_stand=3.0, seconds_walk=30.0)
+    covered = (t >= 10.0) & (t < 20.0)
+    stage = LiveIndicatorStage()
+    got = {}
+    for ti, ai, c in zip(t, a, covered, strict=True):
+        h = stage.push_unmeasured(ti) if c else stage.push(ti, ai)
+        if h is not None:
+            got[round(h.t_s)] = h
+    for k in range(11, 20):
+        assert got[k].activity == "unknown" and f"nothing measured for {k - 10 + 0.03:.1f} s" in got[k].reasons[0]
+    for k in (20, 21):
+        assert got[k].activity == "unknown" and "measuring again after nothing measured for 10.0 s" in got[k].reasons[0]
+        assert all(math.isnan(v) for v in (*got[k].posture_deg, got[k].cadence_spm))
+    assert all(got[k].activity == "walking" for k in range(24, 33))
+
+    stage = LiveIndicatorStage()
+    for i in range(30):  # covered for the first second
+        stage.push_unmeasured(i / FPS)
+    first = stage.push(1.0, (0.0, 0.0, -1.9))
+    assert first is not None and first.n_samples == 1 and first.activity == "unknown"
+    assert "measuring again after nothing measured since the start" in first.reasons[0]
+    assert all(math.isnan(v) for v in first.posture_deg)
+
+
+def test_max_gap_must_be_shorter_than_the_window() -> None:
+    from walkmon.gait.live import LiveIndicatorSettings
+
+    with pytest.raises(ValueError, match="max_gap_s must be less than window_s"):
+        LiveIndicatorSettings(max_gap_s=8.0)
+    with pytest.raises(ValueError, match="max_gap_s must be > 0"):
+        LiveIndicatorSettings(max_gap_s=0.0)

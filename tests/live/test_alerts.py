@@ -157,3 +157,19 @@ def test_posture_alerts_compare_what_the_posture_is_at_least(doubt: float, raise
     if raised:
         assert ev[0].value == pytest.approx(8.0 - (doubt if doubt == doubt else 0.0))
         assert "left shoulder down" in ev[0].message
+
+
+def test_an_alert_cleared_by_a_covered_lens_says_so() -> None:
+    """A raised alert is cleared when the wearer stops walking; when the hop is unknown because the camera measured
+    nothing (LiveIndicatorStage.push_unmeasured), the clearing says that, not 'not walking'."""
+    stage = AlertStage()
+    raised = feed(stage, [ind(float(t), pitch=-15.0) for t in range(0, 8)])
+    assert [e.state for e in raised] == ["raised"]
+    blind = dataclasses.replace(ind(8.0, walking=False), activity="unknown", label="not_walking",
+                                reasons=("nothing measured for 2.0 s: the camera's view held (covered, dark or featureless)",))
+    (ev,) = stage.push(blind)
+    assert ev.state == "cleared" and ev.message == "nothing measured for 2.0 s: alert cleared"
+    stage = AlertStage()
+    feed(stage, [ind(float(t), pitch=-15.0) for t in range(0, 8)])
+    (ev,) = stage.push(dataclasses.replace(ind(8.0, walking=False), activity="standing"))
+    assert ev.message == "not walking: alert cleared"

@@ -11,6 +11,7 @@ session-log schema migration and the ``[imu]`` config keys.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import sqlite3
 from pathlib import Path
@@ -374,3 +375,59 @@ def test_a_device_clock_that_jumps_back_restarts_the_filter_without_a_jump_in_th
         o = stage.push_frame(float(tf), rotation_from_angles_deg(0.0, yaw0 + RATE_DPS * tf, 0.0), True)
         assert o.angles_deg[1] == pytest.approx(yaw0 + RATE_DPS * tf, abs=0.1)
     assert o.mode == "fused" and stage.counters()["filter_restarts"] == 1
+
+
+def test_a_held_frame_the_imu_carried_still_counts_live(tmp_path: Path, GaitSource, TruthEstimator) -> None:
+    """A frame the estimator held (a covered lens) measures nothing by itself, but when the IMU fusion carried it
+    (mode 'fused') its angles are the IMU's and go into the indicators: the walk behind a 3 s cap stays walking.
+    Camera-only (no IMU), the same cap reads unknown (tests/gait/test_held_frames.py)."""
+    from walkmon.drivers.imu_types import ImuBatch, ImuSample
+    from walkmon.gait.live import LiveIndicatorStage
+    from walkmon.live.alerts import AlertStage
+    from walkmon.live.pipeline import LivePipeline
+    from walkmon.live.session_log import SessionLog, open_database, read_session_table
+    from walkmon.rotation.types import EstimateStatus
+    from walkmon.simulate.gait import GaitModel
+    from walkmon.simulate.imu import simulate_imu
+
+    model = GaitModel("normal:14", seed=2)
+    imu = simulate_imu(model)
+    cap = (8.0, 11.0)
+
+    class Imu:
+        url, reconnectable, live = "test:imu", False, False
+
+        def open(self) -> None:
+            self.i = 0
+
+        def read(self) -> ImuBatch:
+            if self.i >= len(imu.t_s):
+                raise SourceDisconnected("test:imu: end")
+            k, self.i = self.i, self.i + 1
+            return ImuBatch((ImuSample(float(imu.t_s[k]), tuple(imu.gyroscope_rps[k]), tuple(imu.accelerometer_mps2[k])),))
+
+        def close(self) -> None:
+            pass
+
+    class Capped(TruthEstimator):
+        def push(self, frame: np.ndarray, t_s: float):  # noqa: ANN201
+            est = super().push(frame, t_s)
+            if cap[0] <= t_s < cap[1]:
+                return dataclasses.replace(est, model="hold", status=EstimateStatus.TOO_FEW_FEATURES)
+            return est
+
+    log = SessionLog(tmp_path, kind="live", flush_interval_s=0.2)
+    res = LivePipeline(GaitSource(model), lambda _src: Capped(model), indicators=LiveIndicatorStage(),
+                       alerts=AlertStage(), session_log=log, imu_source=Imu()).run(120.0)
+    conn = open_database(tmp_path, create=False)
+    try:
+        hops = read_session_table(conn, res.session_id, "hops")
+        frames = read_session_table(conn, res.session_id, "frames")
+    finally:
+        conn.close()
+    t = np.array(frames["t_s"])
+    held = np.array(frames["model"]) == "hold"
+    assert held[(t >= cap[0] + 0.1) & (t < cap[1] - 0.1)].all()
+    assert (np.array(frames["fused"])[held] == 1).all()  # the IMU carried every held frame
+    activity = {round(float(h)): json.loads(j)["activity"] for h, j in zip(hops["t_s"], hops["json"], strict=True)}
+    assert all(activity[k] == "walking" for k in range(9, 12)), activity

@@ -223,3 +223,23 @@ def test_a_taken_port_is_one_line(python_cmd: list[str], db: Path) -> None:
         r = subprocess.run([*python_cmd, "serve", "--data-dir", str(db), "--port", str(port)],
                            capture_output=True, text=True, timeout=60, check=False)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "cannot listen on 127.0.0.1" in r.stderr
+
+
+def test_a_covered_lens_is_drawn_as_unknown_not_as_standing(tmp_path: Path, write_session: Any, make_hop: Any) -> None:
+    """Hops in which the camera measured nothing (unknown, with that reason) keep 'unknown' in the timeline, which
+    the band draws in its own grey; other unknown hops (the first seconds, older logs) stay 'not walking'."""
+    import dataclasses
+
+    from walkmon.views.svg import ACTIVITY_COLORS
+
+    blind = ("nothing measured for 2.0 s: the camera's view held (covered, dark or featureless)",)
+    hops = [make_hop(1.0, walking=False),
+            dataclasses.replace(make_hop(2.0, walking=False), activity="unknown", reasons=blind),
+            dataclasses.replace(make_hop(3.0, walking=False), activity="unknown",
+                                reasons=("measuring again after nothing measured for 3.0 s",)),
+            dataclasses.replace(make_hop(4.0, walking=False), activity="standing"),
+            make_hop(5.0)]
+    sid = write_session(tmp_path, hops)
+    tl = client(tmp_path).get(f"/api/sessions/{sid}/timeline").json()
+    assert tl["hops"]["activity"] == ["not walking", "unknown", "unknown", "standing", "walking"]
+    assert ACTIVITY_COLORS["unknown"] != ACTIVITY_COLORS["standing"]

@@ -2,7 +2,9 @@
 
 A stage (no threads, no I/O, no clock reads): :meth:`LiveIndicatorStage.push` takes one camera orientation
 sample (capture time and (pitch, yaw, roll) in degrees relative to the first frame) and returns a
-:class:`LiveIndicators` once per hop (``hop_s``, default 1 s) computed over the last ``window_s`` (default 8 s):
+:class:`LiveIndicators` once per hop (``hop_s``, default 1 s) computed over the last ``window_s`` (default 8 s);
+:meth:`LiveIndicatorStage.push_unmeasured` takes a frame that measured nothing (the estimator held it: a covered
+lens), which adds no sample but keeps the hops coming (``unknown`` once nothing was measured for ``max_gap_s``):
 
 * **Upright calibration.** At the start, and again after :meth:`request_calibration` (SIGUSR1 in ``walkmon
   live``), the stage waits for ``calibration_s`` of stillness and takes the mean angles as the upright
@@ -41,7 +43,6 @@ from numpy.typing import NDArray
 
 from walkmon.consts import AXES
 from walkmon.gait.posture import Classification
-from walkmon.sampling import gaps
 
 __all__ = [
     "DEFAULT_LIVE_INDICATOR_SETTINGS",
@@ -113,6 +114,9 @@ class LiveIndicatorSettings:
             if not getattr(self, name) > 0:
                 msg = f"indicators.{name} must be > 0, got {getattr(self, name)}"
                 raise ValueError(msg)
+        if self.max_gap_s >= self.window_s:
+            msg = "indicators.max_gap_s must be less than window_s"
+            raise ValueError(msg)
         if self.walking_window_s > self.window_s or self.posture_window_s > self.window_s:
             msg = "indicators.walking_window_s and posture_window_s must not exceed window_s"
             raise ValueError(msg)
@@ -194,6 +198,9 @@ class LiveIndicators:
 # ----------------------------------------------------------------------------------------------- pure maths
 
 
+#: After nothing was measured for ``max_gap_s`` (a covered lens), hops stay ``unknown`` for this long once measuring
+#: resumes (s): what a session's first hops need too (:meth:`LiveIndicatorStage._activity` wants 2 s of samples).
+RESUME_S = 2.0
 #: Labels that an inclination gives (the window's mean posture); a wearer who straightens up is still read bent
 #: by them until the new posture can be split off.
 _POSTURE_LABELS = ("bend", "left_shoulder_down")
@@ -311,7 +318,8 @@ def cycle_extremes(x: NDArray[np.float64], rate_hz: float, cycle_hz: float) -> t
 
 
 class LiveIndicatorStage:
-    """Sliding-window indicator stage: ``push(t_s, angles_deg) -> LiveIndicators | None`` and ``reset()``."""
+    """Sliding-window indicator stage: ``push(t_s, angles_deg) -> LiveIndicators | None`` for a measured frame,
+    ``push_unmeasured(t_s)`` for one that measured nothing, and ``reset()``."""
 
     def __init__(self, settings: LiveIndicatorSettings = DEFAULT_LIVE_INDICATOR_SETTINGS) -> None:
         from scipy import signal  # noqa: PLC0415 - slow first import: here, not inside the first hop
@@ -326,7 +334,9 @@ class LiveIndicatorStage:
         self._a: collections.deque[tuple[float, float, float]] = collections.deque()
         self._next_hop_t: float | None = None
         self._last_push_t = -math.inf  # the last frame's time, measured or not (push_unmeasured)
-        self._activity_why = ""  # why _activity said unknown, when it is not the usual (read once by _compute)
+        self._last_measured_t = -math.inf  # the last measured sample's time (the window's trimming keeps it)
+        # measuring again after nothing was measured for max_gap_s or more: (first sample after, the gap's length)
+        self._resumed: tuple[float, float] | None = None
         self._reference = np.zeros(3)
         self._calibrated = False
         self._calibration_pending = "start"
@@ -383,6 +393,10 @@ class LiveIndicatorStage:
         if t_s <= self._last_push_t:
             return None  # out of order or repeated timestamp: ignore
         s = self.settings
+        if self._last_push_t > self._last_measured_t and t_s - self._last_measured_t > s.max_gap_s:
+            # the first sample after frames that measured nothing for max_gap_s or more (or from the start)
+            gap = t_s - self._last_measured_t
+            self._resumed = (float(t_s), gap)
         if self._a:  # yaw continuous across +-180 (a U-turn): a wrapped window reads a 360 deg "swing"
             prev = self._a[-1][1]
             a = (a[0], a[1] + 360.0 * round((prev - a[1]) / 360.0), a[2])
@@ -393,7 +407,7 @@ class LiveIndicatorStage:
         while self._t and self._t[0] < t_s - s.window_s:
             self._t.popleft()
             self._a.popleft()
-        self._last_push_t = float(t_s)
+        self._last_push_t = self._last_measured_t = float(t_s)
         if self._calibration_pending:
             self._try_calibrate()
         else:
@@ -425,13 +439,20 @@ class LiveIndicatorStage:
         return True
 
     def _unmeasured(self, t_now: float) -> LiveIndicators | None:
-        """The hop's indicators when nothing was measured for ``max_gap_s`` before ``t_now`` (else None)."""
-        last = self._t[-1] if self._t else -math.inf
-        if t_now - last <= self.settings.max_gap_s:
+        """The hop's indicators when nothing was measured for ``max_gap_s`` before ``t_now``, or measuring
+        resumed after such a stretch less than :data:`RESUME_S` ago (as little to go on as at the start, and the
+        window's few samples would give a posture and a cadence from a stride or less); else None."""
+        last = self._last_measured_t
+        if t_now - last > self.settings.max_gap_s:
+            since = f"for {t_now - last:.1f} s" if math.isfinite(last) else "since the start"
+            why = f"nothing measured {since}: the camera's view held (covered, dark or featureless)"
+        elif self._resumed is not None and t_now - self._resumed[0] < RESUME_S:
+            gap = self._resumed[1]
+            why = (f"measuring again after nothing measured for {gap:.1f} s" if math.isfinite(gap)
+                   else "measuring again after nothing measured since the start")
+        else:
             return None
         nan3 = (math.nan, math.nan, math.nan)
-        since = f"for {t_now - last:.1f} s" if math.isfinite(last) else "since the start"
-        why = f"nothing measured {since}: the camera's view held (covered, dark or featureless)"
         return LiveIndicators(
             t_s=float(t_now), window_s=float(self._t[-1] - self._t[0]) if self._t else 0.0, n_samples=len(self._t),
             walking=False, gait_rms_deg=math.nan, cadence_spm=math.nan, swing_deg=nan3, inclination_deg=nan3,
@@ -615,8 +636,6 @@ class LiveIndicatorStage:
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
         walking = activity == "walking"
         label, reasons = "not_walking", (f"activity {activity}: no walking bout reaching the present",)
-        if self._activity_why:
-            reasons, self._activity_why = (self._activity_why,), ""
         if walking and span is not None:
             ind = self._classify_span(t, np.asarray(self._a, dtype=float), span)
             label, reasons = ind.classification.label, tuple(ind.classification.reasons)
@@ -791,11 +810,6 @@ class LiveIndicatorStage:
         from walkmon.gait.activity import segment, signals_from_angles  # noqa: PLC0415
 
         if len(t) < 10 or t[-1] - t[0] < 2.0:
-            return "unknown", None
-        found = gaps(t, self.settings.max_gap_s)
-        if found and t_now - found[-1][1] < 2.0:  # measuring again after a gap: as little to go on as at the start
-            a_, b_ = found[-1]
-            self._activity_why = f"measuring again after nothing measured for {b_ - a_:.1f} s"
             return "unknown", None
         try:
             seg = segment(signals_from_angles(t, a))

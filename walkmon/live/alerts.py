@@ -142,6 +142,12 @@ def _measures(s: AlertSettings) -> dict[str, tuple[Callable[[LiveIndicators], fl
     }
 
 
+def _not_walking_why(ind: LiveIndicators) -> str:
+    """Why a hop is no walking, in a few words: 'not walking', or that nothing was measured (a covered lens)."""
+    why = str(ind.reasons[0]).split(":")[0] if ind.activity == "unknown" and ind.reasons else ""
+    return why if why.startswith(("nothing measured", "measuring again")) else "not walking"
+
+
 class AlertStage:
     """``push(indicators) -> list[AlertEvent]`` and ``reset()``; :attr:`active` lists raised conditions."""
 
@@ -168,7 +174,7 @@ class AlertStage:
             if not ind.walking:
                 st.pending_since = None
                 if st.active:
-                    events.append(self._clear(cond, st, t, value, off_thr, "not walking: alert cleared"))
+                    events.append(self._clear(cond, st, t, value, off_thr, f"{_not_walking_why(ind)}: alert cleared"))
                 continue
             if not st.active:
                 if finite and value > on_thr:

@@ -240,15 +240,21 @@ class Store:
         cols: dict[str, list[Any]] = {k: [] for k in ("t_s", "walking", "activity", "label", "cadence_spm", "pitch",
                                                       "yaw", "roll", "step_asymmetry")}
         for t, walking, cad, p, y, r, label, asym, js in hops:
-            activity = None
+            activity, unseen = None, False
             if js and '"activity"' in js:
                 try:
-                    activity = json.loads(js).get("activity")
-                except ValueError:
+                    doc = json.loads(js)
+                    activity = doc.get("activity")
+                    reasons = (doc.get("classification") or {}).get("reasons") or []
+                    # a hop in which the camera measured nothing (a covered lens: LiveIndicatorStage.push_unmeasured)
+                    unseen = any(str(r).startswith(("nothing measured", "measuring again")) for r in reasons)
+                except (ValueError, AttributeError):
                     activity = None
             cols["t_s"].append(_num(_f(t)))
             cols["walking"].append(bool(walking))
-            if not activity or activity == "unknown":  # older hops, or none of the segmentation's classes
+            if activity == "unknown" and unseen:
+                pass  # drawn as unknown, not as standing
+            elif not activity or activity == "unknown":  # older hops, or none of the segmentation's classes
                 activity = "walking" if walking else "not walking"
             cols["activity"].append(str(activity))
             cols["label"].append(label or "")
