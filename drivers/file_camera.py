@@ -1,8 +1,8 @@
 """A video file as a camera: ``file:walk.mp4?realtime=1&loop=0``.
 
-Wraps :class:`walkmon.drivers.video_file.VideoFile` (the reader ``walkmon analyze`` uses), so frame ``i`` has
-capture time ``i / fps`` exactly as offline and both analyses see the same frames and timestamps. With
-``realtime=1`` frames are released at the video's frame rate on the monotonic clock, as if the camera were live
+Wraps :class:`walkmon.drivers.video_file.VideoFile` (the reader ``walkmon analyze`` uses), so a frame's capture
+time is its presentation time in the file exactly as offline and both analyses see the same frames and timestamps.
+With ``realtime=1`` frames are released at their times on the monotonic clock, as if the camera were live
 (frames are never skipped here: if the consumer is slow, the pipeline's frame queue drops them and counts).
 With ``loop=1`` the file restarts at its end with time running on (long soak tests). At the end of the file
 :meth:`read` raises SourceDisconnected ("end of stream").
