@@ -38,6 +38,7 @@ class FileCamera(CameraSource):
         self._t_offset_s = 0.0
         self._last_t_s = 0.0
         self._t0_mono = 0.0
+        self.rotation_deg = 0.0
 
     def _open_video(self):  # noqa: ANN202 - a VideoFile
         from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
@@ -50,6 +51,8 @@ class FileCamera(CameraSource):
     def _open(self) -> None:
         self._video = self._open_video()
         self.fps = self._fps_override or self._video.fps
+        #: the file's display rotation, which its frames come turned by (VideoFile.rotation_deg)
+        self.rotation_deg = self._video.rotation_deg
         self._t0_mono = time.monotonic()
 
     def _read(self) -> Frame:

@@ -65,6 +65,11 @@ class VideoFile:
         self.height_px = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
         #: Frame count from the container header (may be 0 or approximate for some formats).
         self.frame_count = max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
+        #: The file's display rotation, degrees clockwise (a phone's portrait video: 90), which OpenCV applies to
+        #: the frames (and to ``width_px``/``height_px``): a calibration made on the unturned frames is turned to
+        #: fit (:func:`walkmon.camera.model.camera_for_frames`). 0 when the file gives none.
+        rotation = float(cap.get(cv2.CAP_PROP_ORIENTATION_META) or 0.0)
+        self.rotation_deg = float(round(rotation / 90.0) * 90 % 360) if math.isfinite(rotation) else 0.0
         self._cap = cap
         self._index = 0
         self._pts0_s: float | None = None  # the first frame's presentation time: t = 0

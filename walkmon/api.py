@@ -396,8 +396,9 @@ def status_summary(estimates: Sequence[RotationEstimate]) -> str:
 
 
 def open_video(path: str | Path, *, decode_threads: int = 0) -> VideoFile:
-    """Open a video file: iterate it for ``(t_s, frame_bgr)`` (``t_s = i / fps``); it has ``fps``, ``width_px``,
-    ``height_px`` and ``frame_count``; use it as a context manager. A missing file raises InvalidInputError, one
+    """Open a video file: iterate it for ``(t_s, frame_bgr)`` (``t_s``: the frame's presentation time from the
+    first's); it has ``fps``, ``width_px``, ``height_px``, ``frame_count`` and ``rotation_deg`` (the display
+    rotation OpenCV applied); use it as a context manager. A missing file raises InvalidInputError, one
     OpenCV cannot decode SourceError."""
     from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
 
@@ -411,7 +412,7 @@ def _video_rotations(
     """The rotation of every frame of ``video`` (the camera model from ``calib``, scaled to the video's size;
     ``readout_s``, when given, replaces its rolling-shutter readout)."""
     from walkmon.camera.lens_profile import read_camera_file  # noqa: PLC0415  (a YAML, or a Gyroflow .json)
-    from walkmon.camera.model import default_camera  # noqa: PLC0415
+    from walkmon.camera.model import camera_for_frames, default_camera  # noqa: PLC0415
     from walkmon.rotation import RotationEstimator, RotationSettings  # noqa: PLC0415
 
     camera = read_camera_file(calib) if calib is not None else None
@@ -419,11 +420,15 @@ def _video_rotations(
         if camera is None:
             camera = default_camera(frames.width_px, frames.height_px)
         elif (camera.width_px, camera.height_px) != (frames.width_px, frames.height_px):
+            rotation = float(getattr(frames, "rotation_deg", 0.0))
+            fitted = camera_for_frames(camera, frames.width_px, frames.height_px, rotation)  # or one line, exit 2
+            turned = (fitted.width_px > fitted.height_px) != (camera.width_px > camera.height_px)
             _log.warning(
-                "calibration is for %dx%d, video is %dx%d: scaling the intrinsics",
+                "calibration is for %dx%d, video is %dx%d%s: intrinsics %s",
                 camera.width_px, camera.height_px, frames.width_px, frames.height_px,
+                f" (shown turned {rotation:g} deg)" if rotation else "", "turned to the frames" if turned else "scaled",
             )
-            camera = camera.scaled_to(frames.width_px, frames.height_px)
+            camera = fitted
         if readout_s is not None:
             camera = dataclasses.replace(camera, readout_s=readout_s)
         estimator = RotationEstimator(camera, RotationSettings(method=method))

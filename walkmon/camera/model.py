@@ -37,6 +37,7 @@ __all__ = [
     "DEFAULT_HFOV_DEG",
     "DISTORTION_MODELS",
     "CameraModel",
+    "camera_for_frames",
     "default_camera",
     "read_camera_yaml",
     "write_camera_yaml",
@@ -51,6 +52,9 @@ MAX_IMAGE_SIDE_PX = 20000
 MAX_DISTORTION_COEFFICIENT = 1000.0
 #: Largest rolling-shutter readout accepted, s (a slow sensor at 10 fps; beyond it the file is wrong).
 MAX_READOUT_S = 0.1
+
+#: Largest ratio of two aspect ratios that are still the same image shape (codec padding: 1080 vs 1088 rows).
+ASPECT_TOLERANCE = 1.02
 
 #: Supported distortion models and how many coefficients each takes.
 DISTORTION_MODELS = {"plumb_bob": (4, 5, 8, 12, 14), "equidistant": (4,)}
@@ -151,13 +155,52 @@ class CameraModel:
         return math.degrees(2.0 * math.atan2(self.width_px / 2.0, self.fx))
 
     def scaled_to(self, width_px: int, height_px: int) -> CameraModel:
-        """The same lens at another resolution (e.g. a camera streaming at a different size)."""
+        """The same lens at another resolution (e.g. a camera streaming at a different size). Another aspect ratio
+        is refused (InvalidInputError): no scaling makes a 16:9 calibration fit 4:3 frames (another sensor crop,
+        or a portrait video: see :meth:`rotated`) or square pixels of anamorphic ones, and the stretched
+        intrinsics gave silently wrong angles."""
         sx, sy = width_px / self.width_px, height_px / self.height_px
+        if not 1.0 / ASPECT_TOLERANCE <= sx / sy <= ASPECT_TOLERANCE:
+            from walkmon.errors import InvalidInputError  # noqa: PLC0415
+
+            msg = (f"the calibration is for {self.width_px}x{self.height_px} images but the frames are "
+                   f"{width_px}x{height_px}, another shape (a rotated, cropped or anamorphic video): calibrate on "
+                   "these frames (walkmon calibrate) or give the calibration of this video mode")
+            raise InvalidInputError(msg)
         K = self.camera_matrix.copy()
         K[0, :] *= sx
         K[1, :] *= sy
         return CameraModel(width_px, height_px, K, self.distortion_model, self.distortion_coefficients, self.name,
                            self.readout_s)
+
+    def rotated(self, quarter_turns: int) -> CameraModel:
+        """The same camera for its images turned ``quarter_turns`` x 90 deg clockwise (as a video player shows a
+        phone's portrait video; OpenCV turns the frames by the file's display rotation): the image axes and the
+        camera's x and y turn with them (z stays forward), so pixel ``(u, v)`` of a ``W x H`` image is
+        ``(H - 1 - v, u)`` after one turn. fx and fy swap, the principal point moves, ``plumb_bob``'s
+        tangential terms turn (``p1, p2 -> p2, -p1``), the radial terms and ``equidistant``'s stay. A skewed
+        matrix, thin-prism or tilt terms (12 or 14 coefficients) and a rolling-shutter readout (its rows become
+        columns) cannot be turned: InvalidInputError."""
+        from walkmon.errors import InvalidInputError  # noqa: PLC0415
+
+        k = int(quarter_turns) % 4
+        if k == 0:
+            return self
+        d = np.array(self.distortion_coefficients, dtype=float)
+        why = ("a skewed camera matrix" if self.camera_matrix[0, 1] != 0.0 else
+               "thin-prism or tilt distortion terms" if self.distortion_model == "plumb_bob" and d.size > 8 else
+               "a rolling-shutter readout (its rows would run across the turned frames)" if self.readout_s > 0 else "")
+        if why:
+            msg = f"the calibration has {why}: it cannot be turned to the video's orientation; calibrate on its frames"
+            raise InvalidInputError(msg)
+        w, h = self.width_px, self.height_px
+        fx, fy, cx, cy = self.fx, self.fy, self.cx, self.cy
+        for _ in range(k):
+            fx, fy, cx, cy, w, h = fy, fx, h - 1 - cy, cx, h, w
+            if self.distortion_model == "plumb_bob":
+                d[2], d[3] = d[3], -d[2]
+        K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+        return CameraModel(w, h, K, self.distortion_model, d, self.name, self.readout_s)
 
     def normalized_from_pixels(self, points_px: ArrayLike) -> NDArray[np.float64]:
         """Undistorted normalised image coordinates (x/z, y/z) of pixel positions; shape (N, 2)."""
@@ -257,6 +300,25 @@ def _matrix(entry: Any, rows: int, cols: int, key: str) -> NDArray[np.float64]:
         msg = f"{key} needs {rows * cols} values, got {len(values)}"
         raise ValueError(msg)
     return np.asarray(values, dtype=float).reshape(rows, cols)
+
+
+def camera_for_frames(camera: CameraModel, width_px: int, height_px: int, rotation_deg: float = 0.0) -> CameraModel:
+    """``camera`` fitted to frames of ``width_px x height_px`` that a video turned by ``rotation_deg`` clockwise
+    (its display rotation, which OpenCV applies): turned (:meth:`CameraModel.rotated`) when the calibration is for
+    the unturned frames (a phone calibrated as it records, the video portrait), then scaled to the frames' size
+    (:meth:`CameraModel.scaled_to`: the same shape only). A half turn cannot be told from a calibration made on the
+    turned frames (same size) and is taken as such."""
+    quarter = int(round(float(rotation_deg) / 90.0)) % 4
+    calib, frames = camera.width_px / camera.height_px, width_px / height_px
+
+    def same_shape(a: float, b: float) -> bool:
+        return abs(math.log(a / b)) <= math.log(ASPECT_TOLERANCE)
+
+    if quarter % 2 == 1 and not same_shape(calib, frames) and same_shape(1.0 / calib, frames):
+        camera = camera.rotated(quarter)
+    if (camera.width_px, camera.height_px) == (width_px, height_px):
+        return camera
+    return camera.scaled_to(width_px, height_px)
 
 
 def default_camera(width_px: int = 640, height_px: int = 480, hfov_deg: float = DEFAULT_HFOV_DEG) -> CameraModel:

@@ -117,7 +117,7 @@ class CameraAwareEstimator:
         self._est: Any = None
 
     def _build(self, frame: Any) -> Any:
-        from walkmon.camera.model import default_camera  # noqa: PLC0415
+        from walkmon.camera.model import camera_for_frames, default_camera  # noqa: PLC0415
         from walkmon.live.pipeline import make_estimator  # noqa: PLC0415
 
         h, w = frame.shape[:2]
@@ -126,8 +126,10 @@ class CameraAwareEstimator:
             cam = default_camera(w, h, self._hfov)
             _log.info("no calibration: default intrinsics for a %g deg horizontal field of view", self._hfov)
         elif (cam.width_px, cam.height_px) != (w, h):
-            _log.info("calibration is for %dx%d, frames are %dx%d: scaled", cam.width_px, cam.height_px, w, h)
-            cam = cam.scaled_to(w, h)
+            # a replayed file's display rotation (a phone's portrait video) turns a calibration of its sensor
+            rotation = float(getattr(self._source, "rotation_deg", 0.0) or 0.0)
+            _log.info("calibration is for %dx%d, frames are %dx%d: fitted", cam.width_px, cam.height_px, w, h)
+            cam = camera_for_frames(cam, w, h, rotation)
         return make_estimator(cam, self._method)
 
     def push(self, frame: Any, t_s: float) -> Any:
