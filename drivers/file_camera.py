@@ -4,8 +4,10 @@ Wraps :class:`walkmon.drivers.video_file.VideoFile` (the reader ``walkmon analyz
 time is its presentation time in the file exactly as offline and both analyses see the same frames and timestamps.
 With ``realtime=1`` frames are released at their times on the monotonic clock, as if the camera were live
 (frames are never skipped here: if the consumer is slow, the pipeline's frame queue drops them and counts).
-With ``loop=1`` the file restarts at its end with time running on (long soak tests). At the end of the file
-:meth:`read` raises SourceDisconnected ("end of stream").
+With ``loop=1`` the file restarts at its end with time running on (long soak tests; 1/fps between the last frame
+and the first again). ``fps=`` replays faster or slower: the file's times scaled by its mean rate over ``fps``
+(a variable-rate file keeps its own rhythm, sped up). At the end of the file :meth:`read` raises
+SourceDisconnected ("end of stream").
 """
 
 from __future__ import annotations

@@ -3,9 +3,11 @@
 A frame's time is its presentation time in the container (``t`` starts at 0 with the first frame; two analyses of
 one file agree). Phones record at a variable frame rate (fewer frames in dim light): ``i / fps`` with the
 container's mean rate put frame 60 of a clip that went from 30 to 15 fps at 2.64 s instead of 2.00 s, and read
-its cadence 24 % low then 51 % high. Where the container gives no usable time for a frame (none, or not after
-the previous frame's), that frame is ``1 / fps`` after the previous one, counted in ``times_guessed`` and
-logged once. A missing file raises :class:`~walkmon.errors.InvalidInputError`; a
+its cadence 24 % low then 51 % high. Where the container gives no usable time for a frame (none, not after the
+previous frame's, or more than :data:`MAX_FRAME_INTERVAL_S` after it: a reset or a corrupt time), that frame is
+``1 / fps`` after the previous one and the frames after it keep their own intervals from there (one bad time
+does not shift the rest of the video, and joined files do not fall back to ``1 / fps``); such frames are counted
+in ``times_guessed`` and, beyond the two a decoder's last buffered frames may lack, logged once at the end. A missing file raises :class:`~walkmon.errors.InvalidInputError`; a
 file OpenCV cannot open or that yields no frame raises :class:`~walkmon.errors.SourceError`; a file whose
 decoding stops well before the frame count its container lists (damaged mid-file) raises
 :class:`~walkmon.errors.InvalidInputError` when the reader gets there; all carry one line naming the file. ``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
@@ -32,6 +34,9 @@ _log = logging.getLogger(__name__)
 
 #: Frame rate assumed when the container does not give a plausible one.
 DEFAULT_FPS = 30.0
+#: A frame more than this after the previous one is timed 1 / fps after it instead (module docstring), s: a phone
+#: in darkness records a few frames a second; a longer interval is a corrupt or reset time, not a pause.
+MAX_FRAME_INTERVAL_S = 1.0
 
 
 class VideoFile:
@@ -72,7 +77,7 @@ class VideoFile:
         self.rotation_deg = float(round(rotation / 90.0) * 90 % 360) if math.isfinite(rotation) else 0.0
         self._cap = cap
         self._index = 0
-        self._pts0_s: float | None = None  # the first frame's presentation time: t = 0
+        self._pts0_s: float | None = None  # the presentation time that is t = 0 (moved by a bad time)
         self._last_t_s = 0.0
         #: frames whose container time was missing or not after the previous frame's (timed 1 / fps after it)
         self.times_guessed = 0
@@ -110,14 +115,19 @@ class VideoFile:
             self._last_t_s = 0.0
             return 0.0
         t = pts - self._pts0_s
-        if not (math.isfinite(t) and t > self._last_t_s):
-            if not self.times_guessed:
-                _log.warning("%s: frame %d has no usable time in the container; timing such frames 1/%g s apart",
-                             self.path, self._index, self.fps)
+        if not (math.isfinite(t) and 0.0 < t - self._last_t_s <= max(MAX_FRAME_INTERVAL_S, 2.0 / self.fps)):
             self.times_guessed += 1
             t = self._last_t_s + 1.0 / self.fps
+            if math.isfinite(pts):
+                self._pts0_s = pts - t  # the frames after it keep their own intervals from here
         self._last_t_s = t
         return t
+
+    def _report_guessed(self) -> None:
+        if self.times_guessed > 2:  # a decoder's last buffered frames may lack a time (an AVI with B-frames)
+            _log.warning("%s: %d frames had no usable time in the container (none, going back, or over %g s after "
+                         "the frame before): each timed 1/%g s after the frame before it", self.path,
+                         self.times_guessed, MAX_FRAME_INTERVAL_S, self.fps)
 
     def __iter__(self) -> Iterator[tuple[float, NDArray[np.uint8]]]:
         while (item := self.read()) is not None:
@@ -127,6 +137,7 @@ class VideoFile:
         if self._cap is not None:
             self._cap.release()
             self._cap = None
+            self._report_guessed()
 
     def __enter__(self) -> VideoFile:
         return self

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import random
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -39,3 +40,46 @@ def unit_settings() -> dict[str, list[str]]:
             k, v = line.split("=", 1)
             out.setdefault(k.strip(), []).append(v.strip())
     return out
+
+
+def _boxes(data: bytes, start: int, end: int) -> list[tuple[bytes, int, int]]:
+    """(type, payload start, end) of the ISO/IEC 14496-12 boxes in ``data[start:end]`` (32-bit sizes)."""
+    out, i = [], start
+    while i + 8 <= end:
+        size, kind = struct.unpack(">I4s", data[i : i + 8])
+        if size < 8:
+            break
+        out.append((kind, i + 8, i + size))
+        i += size
+    return out
+
+
+def write_display_rotation(path: Path, degrees: int) -> None:
+    """Mark an mp4's video track to be shown turned ``degrees`` clockwise, as a phone marks a portrait video: its
+    'tkhd' display matrix (9 big-endian 32-bit values a b u c d v x y w, 16.16 fixed point, u v w 2.30), written
+    in place in the track whose 'hdlr' is 'vide'."""
+    c, s = {0: (1, 0), 90: (0, 1), 180: (-1, 0), 270: (0, -1)}[degrees % 360]
+    matrix = (c * 0x10000, s * 0x10000, 0, -s * 0x10000, c * 0x10000, 0, 0, 0, 0x40000000)
+    data = bytearray(path.read_bytes())
+    (moov,) = [(a, b) for kind, a, b in _boxes(data, 0, len(data)) if kind == b"moov"]
+    for kind, a, b in _boxes(data, *moov):
+        if kind != b"trak":
+            continue
+        inner = {k: (x, y) for k, x, y in _boxes(data, a, b)}
+        mdia = {k: (x, y) for k, x, y in _boxes(data, *inner[b"mdia"])}
+        hdlr = mdia[b"hdlr"][0]
+        if bytes(data[hdlr + 8 : hdlr + 12]) != b"vide":  # version/flags, pre_defined, then the handler type
+            continue
+        tkhd = inner[b"tkhd"][0]
+        off = tkhd + 4 + (20 if data[tkhd] == 0 else 32) + 16  # times, track id, duration; reserved..volume
+        data[off : off + 36] = struct.pack(">9i", *matrix)
+        path.write_bytes(bytes(data))
+        return
+    msg = f"{path}: no video track"
+    raise ValueError(msg)
+
+
+@pytest.fixture(scope="session")
+def set_display_rotation():  # noqa: ANN201
+    """:func:`write_display_rotation` for tests (mark an mp4 as shown turned)."""
+    return write_display_rotation

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from walkmon.errors import ConfigError, InvalidInputError
+from walkmon.errors import ConfigError, InvalidInputError, SourceError
 from walkmon.gait.indicators import Indicators, IndicatorSettings, compute_indicators, indicators_from_dict
 from walkmon.sampling import gaps, sampling_rate_hz
 
@@ -419,18 +419,18 @@ def _video_rotations(
     with open_video(video) as frames:
         if camera is None:
             camera = default_camera(frames.width_px, frames.height_px)
-        elif (camera.width_px, camera.height_px) != (frames.width_px, frames.height_px):
-            rotation = float(getattr(frames, "rotation_deg", 0.0))
-            fitted = camera_for_frames(camera, frames.width_px, frames.height_px, rotation)  # or one line, exit 2
+        if readout_s is not None:
+            camera = dataclasses.replace(camera, readout_s=readout_s)
+        rotation = float(getattr(frames, "rotation_deg", 0.0))
+        fitted = camera_for_frames(camera, frames.width_px, frames.height_px, rotation)  # or one line, exit 2
+        if fitted is not camera:
             turned = (fitted.width_px > fitted.height_px) != (camera.width_px > camera.height_px)
             _log.warning(
                 "calibration is for %dx%d, video is %dx%d%s: intrinsics %s",
                 camera.width_px, camera.height_px, frames.width_px, frames.height_px,
                 f" (shown turned {rotation:g} deg)" if rotation else "", "turned to the frames" if turned else "scaled",
             )
-            camera = fitted
-        if readout_s is not None:
-            camera = dataclasses.replace(camera, readout_s=readout_s)
+        camera = fitted
         estimator = RotationEstimator(camera, RotationSettings(method=method))
         done = [0]
 
@@ -458,12 +458,33 @@ def _read_imu(imu_path: str | Path) -> tuple[Any, dict[str, Any]]:
             msg = "--imu telemetry: needs a file, e.g. --imu telemetry:clip.mp4"
             raise InvalidInputError(msg)
         found = read_telemetry_imu(path)
-        return found.recording, {"telemetry": found.to_dict()}
+        rec, info = found.recording, {"telemetry": found.to_dict()}
+        quarter = _display_quarter_turns(path)
+        if quarter:  # the frames come turned (a portrait video): so do the camera's axes the samples are in
+            from walkmon.camera.model import turned_axes  # noqa: PLC0415
+            from walkmon.imu.recordings import ImuRecording  # noqa: PLC0415
+
+            M = turned_axes(quarter)
+            rec = ImuRecording(rec.t_s, rec.gyroscope_rad_s @ M.T, rec.accelerometer_m_s2 @ M.T)
+            info["telemetry"]["axes_turned_deg"] = 90 * quarter
+        return rec, info
     from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
     units: list[str] = []
     rec = read_imu_csv(imu_path, units_out=units)
     return rec, ({"units": units} if units else {})
+
+
+def _display_quarter_turns(path: str | Path) -> int:
+    """Clockwise quarter turns a video file is shown turned by (its frames come so: VideoFile.rotation_deg); 0 for
+    a file that is no video OpenCV opens."""
+    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
+
+    try:
+        with VideoFile(path) as video:
+            return int(round(video.rotation_deg / 90.0)) % 4
+    except (InvalidInputError, SourceError):
+        return 0
 
 
 def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) -> FusionSettings:

@@ -4,7 +4,6 @@ of stretched (which gave silently wrong angles)."""
 
 from __future__ import annotations
 
-import struct
 import subprocess
 import sys
 from pathlib import Path
@@ -13,7 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
-from walkmon.camera.model import CameraModel, camera_for_frames, read_camera_yaml
+from walkmon.camera.model import CameraModel, camera_for_frames, read_camera_yaml, turned_axes
 from walkmon.commands.cli import main
 from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
 from walkmon.errors import InvalidInputError
@@ -48,6 +47,10 @@ def test_a_turned_calibration_projects_where_the_turned_image_shows(model: str, 
     twice = cam.rotated(2)
     got2 = twice.pixels_from_camera_points(P @ TURN @ TURN)
     assert np.allclose(got2, _turn_pixels(_turn_pixels(uv, 480), 640), atol=1e-6)
+    thrice = cam.rotated(3)
+    got3 = thrice.pixels_from_camera_points(P @ TURN @ TURN @ TURN)
+    assert np.allclose(got3, _turn_pixels(_turn_pixels(_turn_pixels(uv, 480), 640), 480), atol=1e-6)
+    assert np.allclose(turned_axes(1), TURN.T) and np.allclose(turned_axes(3), TURN)
     back = cam.rotated(4)
     assert np.allclose(back.camera_matrix, cam.camera_matrix) and np.allclose(back.distortion_coefficients, coeffs)
 
@@ -62,30 +65,22 @@ def test_another_image_shape_is_refused_not_stretched() -> None:
         camera_for_frames(cam, 1080, 1920)  # portrait frames, but the file said no turn
     turned = camera_for_frames(cam, 1080, 1920, rotation_deg=90.0)
     assert (turned.fx, turned.cx, turned.cy) == (1400.0, 1080 - 1 - 539.5, 959.5)
-    assert camera_for_frames(cam, 540, 960, rotation_deg=270.0).width_px == 540
-    with pytest.raises(InvalidInputError, match="rolling-shutter readout"):
-        camera_for_frames(CameraModel(1920, 1080, cam.camera_matrix, readout_s=0.02), 1080, 1920, 90.0)
-
-
-def _set_display_rotation(path: Path, matrix: tuple[int, ...]) -> None:
-    """Write the video track's display matrix (ISO/IEC 14496-12 'tkhd': 9 big-endian 32-bit values, a b u c d v x
-    y w, 16.16 fixed point but u, v, w 2.30) in place: what a phone writes for a portrait video."""
-    data = bytearray(path.read_bytes())
-    i = data.find(b"tkhd")
-    assert i > 0
-    version = data[i + 4]
-    off = i + 8 + (20 if version == 0 else 32) + 16  # times, track id, duration; reserved, layer, group, volume
-    data[off : off + 36] = struct.pack(">9i", *matrix)
-    path.write_bytes(bytes(data))
+    back = camera_for_frames(cam, 540, 960, rotation_deg=270.0)  # 3 turns: (u, v) -> (v, W - 1 - u)
+    assert (back.width_px, back.fx, back.cx, back.cy) == (540, 700.0, 539.5 / 2, (1919 - 959.5) / 2)
+    rolling = CameraModel(1920, 1080, cam.camera_matrix, readout_s=0.02)
+    for frames, degrees in (((1080, 1920), 90.0), ((1920, 1080), 180.0), ((1080, 1920), 270.0)):
+        with pytest.raises(InvalidInputError, match="readout runs (across|up) its frames.*--readout-ms 0"):
+            camera_for_frames(rolling, *frames, degrees)  # the correction models top-to-bottom rows only
+    assert camera_for_frames(rolling, 960, 540).readout_s == 0.02
 
 
 @pytest.fixture(scope="module")
-def portrait(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def portrait(tmp_path_factory: pytest.TempPathFactory, set_display_rotation) -> Path:  # noqa: ANN001
     d = tmp_path_factory.mktemp("portrait")
     subprocess.run([sys.executable, "-m", "walkmon", "simulate", "--walk", "normal:6", "--width", "320",
                     "--height", "240", "--seed", "2", "--out", str(d)], check=True, capture_output=True, timeout=300)
     (d / "portrait.mp4").write_bytes((d / "video.mp4").read_bytes())
-    _set_display_rotation(d / "portrait.mp4", (0, 0x10000, 0, -0x10000, 0, 0, 0, 0, 0x40000000))  # 90 deg cw
+    set_display_rotation(d / "portrait.mp4", 90)
     return d
 
 

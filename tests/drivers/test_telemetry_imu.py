@@ -222,3 +222,25 @@ def test_live_source_url_opens_the_telemetry_reader(tmp_path: Path) -> None:
         src.open()
     with pytest.raises(ConfigError):
         open_imu("telemetry:")
+
+
+@needs_karma
+def test_a_turned_video_turns_its_own_imus_axes_with_its_frames(tmp_path: Path, set_display_rotation) -> None:  # noqa: ANN001
+    """The GoPro file marked as shown turned 90 deg: OpenCV gives its frames turned, so the camera axes the angles
+    are in turn with them, and the embedded IMU's samples must too. Independent checks: gravity, down the image
+    of the level gimbal camera, now points left in the turned frames (the specific force right, +x), and the
+    extrinsics check (gyro against the visual rates of the turned frames) still finds only its few degrees of
+    residual rotation, not the 90 of axes left unturned."""
+    turned = tmp_path / "karma90.mp4"
+    turned.write_bytes(KARMA.read_bytes())
+    set_display_rotation(turned, 90)
+    from walkmon.api import _read_imu
+
+    rec, info = _read_imu(f"telemetry:{turned}")
+    assert info["telemetry"]["axes_turned_deg"] == 90
+    f = rec.accelerometer_m_s2.mean(axis=0)
+    assert f[0] / np.linalg.norm(f) > 0.95, f  # up (the specific force) was -y, the image's top; now right
+    out = tmp_path / "out"
+    assert main(["analyze", str(turned), "--imu", f"telemetry:{turned}", "--out", str(out), "--no-progress"]) == 0
+    ext = json.loads((out / "imu.json").read_text())["extrinsics_estimate"]
+    assert ext["rotation_deg"] < 8.0, ext

@@ -21,21 +21,33 @@ from walkmon.commands.cli import main  # noqa: E402
 from walkmon.drivers.video_file import VideoFile  # noqa: E402
 
 
-def write_video(path: Path, frames: list[np.ndarray], times_s: list[float]) -> None:
-    """An mp4 (MPEG-4 part 2) holding ``frames`` with presentation times ``times_s`` (ms resolution)."""
+def write_video(path: Path, frames: list[np.ndarray], times_s: list[float], *, fmt: str | None = None,
+                bad_packet: tuple[int, float] | None = None) -> None:
+    """An mp4 (or ``fmt``: 'mpegts') of MPEG-4 part 2 holding ``frames`` with presentation times ``times_s`` (ms
+    resolution); ``bad_packet`` (index, seconds): that packet's presentation time moved by that much (a corrupt
+    time; no B-frames, so packets are frames in order)."""
     h, w = frames[0].shape[:2]
-    with av.open(str(path), mode="w") as out:
+    with av.open(str(path), mode="w", format=fmt) as out:
         stream = out.add_stream("mpeg4", rate=30)
         stream.width, stream.height, stream.pix_fmt = w, h, "yuv420p"
         stream.time_base = stream.codec_context.time_base = Fraction(1, 1000)
         stream.codec_context.bit_rate = 2_000_000
+        n = 0
+
+        def mux(packet: av.Packet) -> None:
+            nonlocal n
+            if bad_packet is not None and n == bad_packet[0]:
+                packet.pts += int(round(bad_packet[1] / packet.time_base))
+            n += 1
+            out.mux(packet)
+
         for img, t in zip(frames, times_s, strict=True):
             frame = av.VideoFrame.from_ndarray(img, format="bgr24")
             frame.pts, frame.time_base = int(round(t * 1000)), Fraction(1, 1000)
             for packet in stream.encode(frame):
-                out.mux(packet)
+                mux(packet)
         for packet in stream.encode():
-            out.mux(packet)
+            mux(packet)
 
 
 def test_a_variable_frame_rate_video_is_read_at_its_frames_times(tmp_path: Path) -> None:
@@ -52,6 +64,26 @@ def test_a_variable_frame_rate_video_is_read_at_its_frames_times(tmp_path: Path)
     write_video(tmp_path / "cfr.mp4", frames[:45], cfr)
     with VideoFile(tmp_path / "cfr.mp4") as video:
         assert np.allclose([t for t, _ in video], cfr, atol=0.0011)
+
+
+def test_one_corrupt_time_or_a_time_reset_does_not_move_the_rest(tmp_path: Path) -> None:
+    """Review cases: one frame's time 100 s late (a corrupt packet) shifted every later frame by 100 s, and two
+    files joined (times starting again at 0) fell back to 1 / fps for the whole second part; now the bad frames
+    are timed 1 / fps after the one before and the rest keep their own intervals."""
+    times = [k / 30 for k in range(60)]
+    frames = [np.full((48, 64, 3), (7 * k) % 255, np.uint8) for k in range(60)]
+    write_video(tmp_path / "jump.mp4", frames, times, bad_packet=(20, 100.0))
+    with VideoFile(tmp_path / "jump.mp4") as video:
+        got = np.array([t for t, _ in video])
+        assert video.times_guessed == 2  # the late frame, and the first after it (going back)
+    assert np.allclose(got, times, atol=0.0011)
+    vfr = [k / 15 for k in range(30)]  # 15 fps: a guess at the container's mean rate would not give these
+    write_video(tmp_path / "a.ts", frames[:30], vfr, fmt="mpegts")
+    (tmp_path / "ab.ts").write_bytes((tmp_path / "a.ts").read_bytes() * 2)
+    with VideoFile(tmp_path / "ab.ts") as video:
+        got = np.array([t for t, _ in video])
+    assert got.size == 60 and np.all(np.diff(got) > 0)
+    assert np.allclose(np.diff(got[31:]), 1 / 15, atol=0.0011)  # the joined part keeps its own intervals
 
 
 @pytest.fixture(scope="module")

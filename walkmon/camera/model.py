@@ -39,6 +39,7 @@ __all__ = [
     "CameraModel",
     "camera_for_frames",
     "default_camera",
+    "turned_axes",
     "read_camera_yaml",
     "write_camera_yaml",
 ]
@@ -302,13 +303,29 @@ def _matrix(entry: Any, rows: int, cols: int, key: str) -> NDArray[np.float64]:
     return np.asarray(values, dtype=float).reshape(rows, cols)
 
 
+def turned_axes(quarter_turns: int) -> NDArray[np.float64]:
+    """Coordinates in the camera of images turned ``quarter_turns`` x 90 deg clockwise (:meth:`CameraModel.rotated`)
+    from the unturned camera's: ``p_turned = turned_axes(k) @ p`` (one turn: ``x' = -y, y' = x``, z forward)."""
+    one = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    return np.linalg.matrix_power(one, int(quarter_turns) % 4)
+
+
 def camera_for_frames(camera: CameraModel, width_px: int, height_px: int, rotation_deg: float = 0.0) -> CameraModel:
     """``camera`` fitted to frames of ``width_px x height_px`` that a video turned by ``rotation_deg`` clockwise
     (its display rotation, which OpenCV applies): turned (:meth:`CameraModel.rotated`) when the calibration is for
     the unturned frames (a phone calibrated as it records, the video portrait), then scaled to the frames' size
-    (:meth:`CameraModel.scaled_to`: the same shape only). A half turn cannot be told from a calibration made on the
-    turned frames (same size) and is taken as such."""
+    (:meth:`CameraModel.scaled_to`: the same shape only). A half turn, or a quarter turn of square frames, cannot
+    be told from a calibration made on the turned frames (same shape) and is taken as such (a calibration does not
+    record the orientation it was made in). A turned video with a rolling-shutter readout is refused: the readout
+    then runs across or up the frames, and :mod:`walkmon.rotation.shutter` models top to bottom only."""
     quarter = int(round(float(rotation_deg) / 90.0)) % 4
+    if quarter and camera.readout_s > 0:
+        from walkmon.errors import InvalidInputError  # noqa: PLC0415
+
+        msg = (f"the video is shown turned {90 * quarter} deg, so the camera's rolling-shutter readout runs "
+               f"{'across' if quarter % 2 else 'up'} its frames, which walkmon's correction cannot model: give "
+               "--readout-ms 0 (or a calibration without readout_s)")
+        raise InvalidInputError(msg)
     calib, frames = camera.width_px / camera.height_px, width_px / height_px
 
     def same_shape(a: float, b: float) -> bool:

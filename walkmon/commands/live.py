@@ -126,10 +126,9 @@ class CameraAwareEstimator:
             cam = default_camera(w, h, self._hfov)
             _log.info("no calibration: default intrinsics for a %g deg horizontal field of view", self._hfov)
         elif (cam.width_px, cam.height_px) != (w, h):
-            # a replayed file's display rotation (a phone's portrait video) turns a calibration of its sensor
-            rotation = float(getattr(self._source, "rotation_deg", 0.0) or 0.0)
             _log.info("calibration is for %dx%d, frames are %dx%d: fitted", cam.width_px, cam.height_px, w, h)
-            cam = camera_for_frames(cam, w, h, rotation)
+        # a replayed file's display rotation (a phone's portrait video) turns a calibration of its sensor
+        cam = camera_for_frames(cam, w, h, float(getattr(self._source, "rotation_deg", 0.0) or 0.0))
         return make_estimator(cam, self._method)
 
     def push(self, frame: Any, t_s: float) -> Any:
