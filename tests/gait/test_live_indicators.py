@@ -439,6 +439,16 @@ def test_a_trunk_that_pitches_differently_left_and_right_raises_no_asymmetry_ale
     assert not any(r.label == "right_foot_drag" for r in walking)
 
 
+def _run_covered(t: np.ndarray, a: np.ndarray, covered: np.ndarray) -> dict[int, LiveIndicators]:
+    """The hops (by whole second) of a fresh stage fed (t, a), the ``covered`` frames as measuring nothing."""
+    stage = LiveIndicatorStage()
+    got = {}
+    for ti, ai, c in zip(t, a, covered, strict=True):
+        h = stage.push_unmeasured(ti) if c else stage.push(ti, ai)
+        if h is not None:
+            got[round(h.t_s)] = h
+    return got
+
 
 def test_unmeasured_frames_keep_the_hops_going_and_read_unknown_never_standing() -> None:
     """Frames that measured nothing (push_unmeasured: a covered lens) give hops on time whose activity is unknown
@@ -452,12 +462,7 @@ def test_unmeasured_frames_keep_the_hops_going_and_read_unknown_never_standing()
 
     t, a = synthetic_walk(seconds_stand=3.0, seconds_walk=20.0)
     covered = (t >= 10.0) & (t < 14.0)  # walking all along; the lens covered for 4 s
-    stage = LiveIndicatorStage()
-    got = {}
-    for ti, ai, c in zip(t, a, covered, strict=True):
-        h = stage.push_unmeasured(ti) if c else stage.push(ti, ai)
-        if h is not None:
-            got[round(h.t_s)] = h
+    got = _run_covered(t, a, covered)
     assert got[9].activity == "walking"
     for k in (12, 13):  # more than max_gap_s (1 s) into the cap
         assert got[k].activity == "unknown" and "nothing measured for" in got[k].reasons[0]
@@ -474,12 +479,7 @@ def test_a_cap_longer_than_the_window_and_a_covered_start_give_no_posture_from_a
     sample gave a posture of -1.9 deg roll mid-stride)."""
     t, a = synthetic_walk(seconds_stand=3.0, seconds_walk=30.0)
     covered = (t >= 10.0) & (t < 20.0)
-    stage = LiveIndicatorStage()
-    got = {}
-    for ti, ai, c in zip(t, a, covered, strict=True):
-        h = stage.push_unmeasured(ti) if c else stage.push(ti, ai)
-        if h is not None:
-            got[round(h.t_s)] = h
+    got = _run_covered(t, a, covered)
     for k in range(11, 20):
         assert got[k].activity == "unknown" and f"nothing measured for {k - 10 + 0.03:.1f} s" in got[k].reasons[0]
     for k in (20, 21):
