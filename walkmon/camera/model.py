@@ -341,14 +341,17 @@ def camera_for_frames(camera: CameraModel, width_px: int, height_px: int, rotati
 def default_camera(width_px: int = 640, height_px: int = 480, hfov_deg: float = DEFAULT_HFOV_DEG) -> CameraModel:
     """Intrinsics for an unknown camera: square pixels, principal point at the centre, no distortion.
 
-    ``fx = fy = (width / 2) / tan(hfov / 2)``, with the horizontal field of view defaulting to
-    :data:`DEFAULT_HFOV_DEG` (70°, typical of USB webcams and the OAK-D colour camera at 4:3). Rotation angles
-    scale roughly with the focal length error, so a real calibration (``walkmon calibrate``) is better.
+    ``fx = fy = (side / 2) / tan(hfov / 2)`` with ``side`` the image's longer side (the width of a landscape
+    image), the horizontal field of view defaulting to :data:`DEFAULT_HFOV_DEG` (70°, typical of USB webcams and
+    the OAK-D colour camera at 4:3). The longer side because a camera's field of view is across its sensor's width:
+    a phone's portrait video (frames turned to 1080x1920) shows that width as its height, and 70° across its 1080
+    columns made the focal length 1.8x too short, and every angle 1.8x too large. Rotation angles scale roughly
+    with the focal length error, so a real calibration (``walkmon calibrate``) is better.
     """
     if not 1.0 < hfov_deg < 179.0:
         msg = f"horizontal field of view must be in (1, 179) degrees, got {hfov_deg}"
         raise ConfigError(msg)
-    f = (width_px / 2.0) / math.tan(math.radians(hfov_deg) / 2.0)
+    f = (max(width_px, height_px) / 2.0) / math.tan(math.radians(hfov_deg) / 2.0)
     K = np.array([[f, 0.0, (width_px - 1) / 2.0], [0.0, f, (height_px - 1) / 2.0], [0.0, 0.0, 1.0]])
     return CameraModel(width_px, height_px, K, "plumb_bob", np.zeros(5), "default")
 
