@@ -84,12 +84,15 @@ class TelemetryImuFile:
     has_gravity_stream: bool
     gyro_rate_hz: float
     accel_rate_hz: float
+    #: the file's display rotation (clockwise), which its frames come turned by and the samples' axes with them
+    axes_turned_deg: int = 0
 
     def to_dict(self) -> dict[str, object]:
         return {"camera": self.camera, "model": self.model, "samples": len(self.recording.t_s),
                 "gyro_rate_hz": round(self.gyro_rate_hz, 2), "accel_rate_hz": round(self.accel_rate_hz, 2),
                 "gravity_stream": self.has_gravity_stream,
-                "axes": "camera (x right, y down, z forward) from telemetry-parser's normalised axes"}
+                "axes": "camera (x right, y down, z forward) from telemetry-parser's normalised axes",
+                "axes_turned_deg": self.axes_turned_deg}
 
 
 def _parser(path: str | Path) -> Any:
@@ -159,8 +162,29 @@ def read_telemetry_imu(path: str | Path) -> TelemetryImuFile:
     recording = recording_from_normalized(np.array(t_g) / 1e3, np.array(g, dtype=float), np.array(t_a) / 1e3,
                                           np.array(a, dtype=float), source=f"{path}: {name}")
     tg = recording.t_s
+    quarter = _display_quarter_turns(path)
+    if quarter:
+        # the file is shown turned (a portrait video): OpenCV turns its frames, so the camera axes the angles are
+        # in turn with them (walkmon.camera.model.camera_for_frames), and the samples must too
+        from walkmon.camera.model import turned_axes  # noqa: PLC0415
+
+        M = turned_axes(quarter)
+        recording = type(recording)(recording.t_s, recording.gyroscope_rad_s @ M.T, recording.accelerometer_m_s2 @ M.T)
     return TelemetryImuFile(recording=recording, camera=camera, model=model, has_gravity_stream=_has_gravity(parser),
-                            gyro_rate_hz=_rate(tg), accel_rate_hz=_rate(np.unique(np.array(t_a)) / 1e3))
+                            gyro_rate_hz=_rate(tg), accel_rate_hz=_rate(np.unique(np.array(t_a)) / 1e3),
+                            axes_turned_deg=90 * quarter)
+
+
+def _display_quarter_turns(path: str | Path) -> int:
+    """Clockwise quarter turns the video ``path`` is shown turned by (VideoFile.rotation_deg); 0 for a file that is
+    no video OpenCV opens (telemetry from another file)."""
+    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
+
+    try:
+        with VideoFile(path) as video:
+            return int(round(video.rotation_deg / 90.0)) % 4
+    except (InvalidInputError, SourceError):
+        return 0
 
 
 def recording_from_normalized(

@@ -3,14 +3,16 @@
 A frame's time is its presentation time in the container (``t`` starts at 0 with the first frame; two analyses of
 one file agree). Phones record at a variable frame rate (fewer frames in dim light): ``i / fps`` with the
 container's mean rate put frame 60 of a clip that went from 30 to 15 fps at 2.64 s instead of 2.00 s, and read
-its cadence 24 % low then 51 % high. Where the container gives no usable time for a frame (none, not after the
-previous frame's, or more than :data:`MAX_FRAME_INTERVAL_S` after it: a reset or a corrupt time), that frame is
-``1 / fps`` after the previous one and the frames after it keep their own intervals from there (one bad time
-does not shift the rest of the video, and joined files do not fall back to ``1 / fps``); such frames are counted
-in ``times_guessed`` and, beyond the two a decoder's last buffered frames may lack, logged once at the end. A missing file raises :class:`~walkmon.errors.InvalidInputError`; a
-file OpenCV cannot open or that yields no frame raises :class:`~walkmon.errors.SourceError`; a file whose
-decoding stops well before the frame count its container lists (damaged mid-file) raises
-:class:`~walkmon.errors.InvalidInputError` when the reader gets there; all carry one line naming the file. ``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
+its cadence 24 % low then 51 % high. The reader decodes one frame ahead, so a frame's time is judged against both
+its neighbours: an unusable one (none, which FFmpeg reports as 0; not after the frame before; more than
+:func:`max_interval_s` after the last good one; or after the next frame's, which itself fits) is put halfway
+between its neighbours, so one bad time moves no other frame (it had shifted the rest of a video: +100 s after
+one corrupt time, +0.5 s after a missing one); when the next frame follows on from the bad one instead (joined
+files, a reset clock), the times go on from ``1 / fps`` after the frame before with their own intervals. Such
+frames are counted in ``times_guessed`` and, beyond the two a decoder's last buffered frames may lack, reported
+in one warning line when the file is read to its end or closed. A real pause longer than :func:`max_interval_s`
+inside one file is shortened to ``1 / fps`` (the frames after it are then early against an IMU's clock).
+``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
 0 lets FFmpeg choose).
 """
 
@@ -34,9 +36,15 @@ _log = logging.getLogger(__name__)
 
 #: Frame rate assumed when the container does not give a plausible one.
 DEFAULT_FPS = 30.0
-#: A frame more than this after the previous one is timed 1 / fps after it instead (module docstring), s: a phone
-#: in darkness records a few frames a second; a longer interval is a corrupt or reset time, not a pause.
+#: A frame more than this after the last good one is timed 1 / fps after the frame before instead (module
+#: docstring), s: a phone in darkness records a few frames a second; a longer interval is a corrupt or reset time.
 MAX_FRAME_INTERVAL_S = 1.0
+
+
+def max_interval_s(fps: float) -> float:
+    """The longest interval between frames taken as real: :data:`MAX_FRAME_INTERVAL_S`, or three frames of a
+    slower video (a time-lapse)."""
+    return max(MAX_FRAME_INTERVAL_S, 3.0 / fps)
 
 
 class VideoFile:
@@ -62,7 +70,7 @@ class VideoFile:
             msg = f"{self.path}: cannot open as a video (unknown format or corrupt file)"
             raise SourceError(msg)
         fps = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
-        if not (math.isfinite(fps) and 1.0 <= fps <= 1000.0):
+        if not (math.isfinite(fps) and 0.1 <= fps <= 1000.0):
             _log.warning("%s: container reports %.3g fps; assuming %g", self.path, fps, DEFAULT_FPS)
             fps = DEFAULT_FPS
         self.fps = fps
@@ -76,10 +84,16 @@ class VideoFile:
         rotation = float(cap.get(cv2.CAP_PROP_ORIENTATION_META) or 0.0)
         self.rotation_deg = float(round(rotation / 90.0) * 90 % 360) if math.isfinite(rotation) else 0.0
         self._cap = cap
-        self._index = 0
-        self._pts0_s: float | None = None  # the presentation time that is t = 0 (moved by a bad time)
-        self._last_t_s = 0.0
-        #: frames whose container time was missing or not after the previous frame's (timed 1 / fps after it)
+        self._index = 0  # frames returned
+        self._decoded = 0  # frames decoded (one ahead of those returned)
+        self._pts_first_s: float | None = None
+        self._pts_span_s = 0.0  # the decoded frames' latest time from the first's (the damage check)
+        self._ahead: tuple[float, NDArray[np.uint8]] | None | bool = False  # the next frame (False: none read yet)
+        self._pts0_s: float | None = None  # the presentation time that is t = 0 (moved by a new time line)
+        self._last_t_s = 0.0  # the frame before's time
+        self._good_t_s = 0.0  # the last frame whose own time was used
+        self._reported = False
+        #: frames whose container time was unusable (none, going back, off the frames either side: module docstring)
         self.times_guessed = 0
 
     def read(self) -> tuple[float, NDArray[np.uint8]] | None:
@@ -87,57 +101,96 @@ class VideoFile:
         if self._cap is None:
             msg = f"{self.path}: video is closed"
             raise SourceError(msg)
-        ok, frame = self._cap.read()
-        if not ok or frame is None:
-            if self._index == 0:
-                msg = f"{self.path}: no decodable frames (corrupt or empty video)"
-                raise SourceError(msg)
-            if self._index < self.frame_count - max(2, self.frame_count // 100):
-                # the container lists more frames than could be decoded: damaged mid-file. Analysing the first
-                # part as if it were the whole walk would be silently wrong, so it is an error.
-                msg = (f"{self.path}: the video is damaged: decoding failed at frame {self._index} of "
-                       f"{self.frame_count} ({self._index / self.fps:.1f} s of {self.frame_count / self.fps:.1f} s); "
-                       "re-encode the readable part (e.g. ffmpeg -i VIDEO -c:v libx264 fixed.mp4) and analyse that")
-                raise InvalidInputError(msg)
+        if self._ahead is False:
+            self._ahead = self._decode()
+        current = self._ahead
+        if not isinstance(current, tuple):
             return None
-        t_s = self._frame_time_s()
+        self._ahead = self._decode()  # one frame ahead: a frame's time is judged against both its neighbours
+        following = self._ahead[0] if isinstance(self._ahead, tuple) else None
+        t_s = self._frame_time_s(current[0], following)
         self._index += 1
-        return t_s, frame
+        return t_s, current[1]
 
-    def _frame_time_s(self) -> float:
-        """The frame just read: its presentation time from the first frame's (module docstring)."""
+    def _decode(self) -> tuple[float, NDArray[np.uint8]] | None:
+        """The next decoded frame with its presentation time in the container (s; NaN when none), or None at the
+        end of the file."""
         import cv2  # noqa: PLC0415
 
         assert self._cap is not None
+        ok, frame = self._cap.read()
+        if not ok or frame is None:
+            if self._decoded == 0:
+                msg = f"{self.path}: no decodable frames (corrupt or empty video)"
+                raise SourceError(msg)
+            span = self._pts_span_s + 1.0 / self.fps  # the decoded frames' time (a container's count may be an
+            expected = self.frame_count / self.fps  # estimate from its duration, as an MPEG-TS's is)
+            if (self._decoded < self.frame_count - max(2, self.frame_count // 100)
+                    and span < expected - max(2.0 / self.fps, 0.01 * expected)):
+                # the container lists more frames than could be decoded: damaged mid-file. Analysing the first
+                # part as if it were the whole walk would be silently wrong, so it is an error.
+                msg = (f"{self.path}: the video is damaged: decoding failed at frame {self._decoded} of "
+                       f"{self.frame_count} ({self._decoded / self.fps:.1f} s of {self.frame_count / self.fps:.1f} s); "
+                       "re-encode the readable part (e.g. ffmpeg -i VIDEO -c:v libx264 fixed.mp4) and analyse that")
+                raise InvalidInputError(msg)
+            return None
+        self._decoded += 1
         pts = float(self._cap.get(cv2.CAP_PROP_POS_MSEC)) / 1000.0
+        # FFmpeg reports a frame without a time as 0: only the first frame may have it
+        pts = pts if math.isfinite(pts) and (pts != 0.0 or self._decoded == 1) else math.nan
+        if math.isfinite(pts):
+            self._pts_first_s = pts if self._pts_first_s is None else self._pts_first_s
+            self._pts_span_s = max(self._pts_span_s, pts - self._pts_first_s)
+        return pts, frame
+
+    def _frame_time_s(self, pts: float, following: float | None) -> float:
+        """A frame's time from its presentation time ``pts`` and the next frame's (``following``; None at the end):
+        module docstring."""
         if self._pts0_s is None:
             self._pts0_s = pts if math.isfinite(pts) else 0.0
-            self._last_t_s = 0.0
             return 0.0
+        limit, step = max_interval_s(self.fps), 1.0 / self.fps
+        last, good = self._last_t_s, self._good_t_s
         t = pts - self._pts0_s
-        if not (math.isfinite(t) and 0.0 < t - self._last_t_s <= max(MAX_FRAME_INTERVAL_S, 2.0 / self.fps)):
-            self.times_guessed += 1
-            t = self._last_t_s + 1.0 / self.fps
-            if math.isfinite(pts):
-                self._pts0_s = pts - t  # the frames after it keep their own intervals from here
+        nxt = math.nan if following is None else following - self._pts0_s
+
+        def fits(x: float) -> bool:  # after the frame before, and not too far after the last good one
+            return math.isfinite(x) and last < x <= good + limit
+
+        if fits(t) and not (fits(nxt) and nxt < t):
+            self._last_t_s = self._good_t_s = t  # its own time (the next frame's, if any, comes after it)
+            return t
+        self.times_guessed += 1
+        if fits(nxt) and nxt - last > 1e-9:
+            t = 0.5 * (last + nxt)  # one bad time between two that fit: between them
+        elif math.isfinite(pts) and following is not None and 0.0 < following - pts <= limit:
+            # the next frame follows on from this one, not from the frames before: a new time line (joined files,
+            # a reset clock); it goes on from here with its own intervals
+            t = last + step
+            self._pts0_s = pts - t
+            self._good_t_s = t
+        else:
+            t = last + step
         self._last_t_s = t
         return t
 
     def _report_guessed(self) -> None:
-        if self.times_guessed > 2:  # a decoder's last buffered frames may lack a time (an AVI with B-frames)
+        if self.times_guessed > 2 and not self._reported:  # a decoder's last buffered frames may lack a time
+            self._reported = True
             _log.warning("%s: %d frames had no usable time in the container (none, going back, or over %g s after "
-                         "the frame before): each timed 1/%g s after the frame before it", self.path,
-                         self.times_guessed, MAX_FRAME_INTERVAL_S, self.fps)
+                         "the one before): each timed 1/%g s after the frame before it", self.path,
+                         self.times_guessed, max_interval_s(self.fps), self.fps)
 
     def __iter__(self) -> Iterator[tuple[float, NDArray[np.uint8]]]:
         while (item := self.read()) is not None:
             yield item
+        self._report_guessed()
 
     def close(self) -> None:
         if self._cap is not None:
             self._cap.release()
             self._cap = None
-            self._report_guessed()
+        self._report_guessed()
 
     def __enter__(self) -> VideoFile:
         return self

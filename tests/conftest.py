@@ -43,13 +43,20 @@ def unit_settings() -> dict[str, list[str]]:
 
 
 def _boxes(data: bytes, start: int, end: int) -> list[tuple[bytes, int, int]]:
-    """(type, payload start, end) of the ISO/IEC 14496-12 boxes in ``data[start:end]`` (32-bit sizes)."""
+    """(type, payload start, end) of the ISO/IEC 14496-12 boxes in ``data[start:end]`` (size 1: a 64-bit size
+    follows the type; size 0: the box runs to the end)."""
     out, i = [], start
     while i + 8 <= end:
         size, kind = struct.unpack(">I4s", data[i : i + 8])
-        if size < 8:
+        header = 8
+        if size == 1:
+            (size,) = struct.unpack(">Q", data[i + 8 : i + 16])
+            header = 16
+        elif size == 0:
+            size = end - i
+        if size < header:
             break
-        out.append((kind, i + 8, i + size))
+        out.append((kind, i + header, i + size))
         i += size
     return out
 

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from walkmon.errors import ConfigError, InvalidInputError, SourceError
+from walkmon.errors import ConfigError, InvalidInputError
 from walkmon.gait.indicators import Indicators, IndicatorSettings, compute_indicators, indicators_from_dict
 from walkmon.sampling import gaps, sampling_rate_hz
 
@@ -457,34 +457,13 @@ def _read_imu(imu_path: str | Path) -> tuple[Any, dict[str, Any]]:
         if not path:
             msg = "--imu telemetry: needs a file, e.g. --imu telemetry:clip.mp4"
             raise InvalidInputError(msg)
-        found = read_telemetry_imu(path)
-        rec, info = found.recording, {"telemetry": found.to_dict()}
-        quarter = _display_quarter_turns(path)
-        if quarter:  # the frames come turned (a portrait video): so do the camera's axes the samples are in
-            from walkmon.camera.model import turned_axes  # noqa: PLC0415
-            from walkmon.imu.recordings import ImuRecording  # noqa: PLC0415
-
-            M = turned_axes(quarter)
-            rec = ImuRecording(rec.t_s, rec.gyroscope_rad_s @ M.T, rec.accelerometer_m_s2 @ M.T)
-            info["telemetry"]["axes_turned_deg"] = 90 * quarter
-        return rec, info
+        found = read_telemetry_imu(path)  # in the axes of the frames as shown (turned with a portrait video's)
+        return found.recording, {"telemetry": found.to_dict()}
     from walkmon.tables import read_imu_csv  # noqa: PLC0415
 
     units: list[str] = []
     rec = read_imu_csv(imu_path, units_out=units)
     return rec, ({"units": units} if units else {})
-
-
-def _display_quarter_turns(path: str | Path) -> int:
-    """Clockwise quarter turns a video file is shown turned by (its frames come so: VideoFile.rotation_deg); 0 for
-    a file that is no video OpenCV opens."""
-    from walkmon.drivers.video_file import VideoFile  # noqa: PLC0415
-
-    try:
-        with VideoFile(path) as video:
-            return int(round(video.rotation_deg / 90.0)) % 4
-    except (InvalidInputError, SourceError):
-        return 0
 
 
 def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) -> FusionSettings:

@@ -225,7 +225,9 @@ def test_live_source_url_opens_the_telemetry_reader(tmp_path: Path) -> None:
 
 
 @needs_karma
-def test_a_turned_video_turns_its_own_imus_axes_with_its_frames(tmp_path: Path, set_display_rotation) -> None:  # noqa: ANN001
+def test_a_turned_video_turns_its_own_imus_axes_with_its_frames(
+    tmp_path: Path, set_display_rotation  # noqa: ANN001
+) -> None:
     """The GoPro file marked as shown turned 90 deg: OpenCV gives its frames turned, so the camera axes the angles
     are in turn with them, and the embedded IMU's samples must too. Independent checks: gravity, down the image
     of the level gimbal camera, now points left in the turned frames (the specific force right, +x), and the
@@ -240,6 +242,10 @@ def test_a_turned_video_turns_its_own_imus_axes_with_its_frames(tmp_path: Path, 
     assert info["telemetry"]["axes_turned_deg"] == 90
     f = rec.accelerometer_m_s2.mean(axis=0)
     assert f[0] / np.linalg.norm(f) > 0.95, f  # up (the specific force) was -y, the image's top; now right
+    live = TelemetryImu(f"telemetry:{turned}", str(turned))  # walkmon live's source: the same axes
+    live.open()
+    first = live.read().samples[0]
+    assert np.allclose(first.accelerometer_m_s2, rec.accelerometer_m_s2[0])
     out = tmp_path / "out"
     assert main(["analyze", str(turned), "--imu", f"telemetry:{turned}", "--out", str(out), "--no-progress"]) == 0
     ext = json.loads((out / "imu.json").read_text())["extrinsics_estimate"]

@@ -75,7 +75,7 @@ def test_one_corrupt_time_or_a_time_reset_does_not_move_the_rest(tmp_path: Path)
     write_video(tmp_path / "jump.mp4", frames, times, bad_packet=(20, 100.0))
     with VideoFile(tmp_path / "jump.mp4") as video:
         got = np.array([t for t, _ in video])
-        assert video.times_guessed == 2  # the late frame, and the first after it (going back)
+        assert video.times_guessed == 1  # the late frame; the next is measured from the last good one
     assert np.allclose(got, times, atol=0.0011)
     vfr = [k / 15 for k in range(30)]  # 15 fps: a guess at the container's mean rate would not give these
     write_video(tmp_path / "a.ts", frames[:30], vfr, fmt="mpegts")
@@ -84,6 +84,60 @@ def test_one_corrupt_time_or_a_time_reset_does_not_move_the_rest(tmp_path: Path)
         got = np.array([t for t, _ in video])
     assert got.size == 60 and np.all(np.diff(got) > 0)
     assert np.allclose(np.diff(got[31:]), 1 / 15, atol=0.0011)  # the joined part keeps its own intervals
+
+
+class _ScriptedTimes:
+    """OpenCV's capture with scripted presentation times (ms; None: what FFmpeg reports for a frame without one,
+    0): the times a muxer will not write (a time earlier than the frame's decoding time)."""
+
+    def __init__(self, times_ms: list[float | None]) -> None:
+        self.times, self.i = times_ms, 0
+
+    def read(self) -> tuple[bool, np.ndarray | None]:
+        if self.i >= len(self.times):
+            return False, None
+        self.i += 1
+        return True, np.zeros((8, 8, 3), np.uint8)
+
+    def get(self, prop: int) -> float:
+        assert prop == cv2.CAP_PROP_POS_MSEC
+        ms = self.times[self.i - 1]
+        return 0.0 if ms is None else float(ms)
+
+    def release(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize(("case", "edit"), [
+    ("a time 0.5 s early", {20: -500.0}),
+    ("no time (FFmpeg's 0)", {15: None}),
+    ("a time 0.3 s late", {40: 300.0}),
+    ("a NaN time", {10: float("nan")}),
+])
+def test_one_bad_time_moves_no_other_frame(tmp_path: Path, case: str, edit: dict) -> None:
+    """Review cases: a frame time a little early or late, or missing (FFmpeg reports 0), had re-based the rest of
+    the video on it (every later frame 0.5 s late, silently). The reader looks one frame ahead: the bad frame is
+    put halfway between its neighbours (here its true time), and the rest keep their own times."""
+    write_video(tmp_path / "v.mp4", [np.zeros((48, 64, 3), np.uint8)] * 3, [0.0, 1 / 30, 2 / 30])
+    true = [k * 1000 / 30 for k in range(90)]
+    times = [true[k] + edit[k] if k in edit and edit[k] is not None else (None if k in edit else true[k])
+             for k in range(90)]
+    with VideoFile(tmp_path / "v.mp4") as video:
+        video._cap.release()
+        video._cap = _ScriptedTimes(times)  # the capture's times, scripted
+        got = np.array([t for t, _ in video])
+        assert video.times_guessed == 1, case
+    assert np.allclose(got, np.array(true) / 1000, atol=1e-9), case
+
+
+def test_a_time_lapse_below_one_frame_a_second_keeps_its_times(tmp_path: Path) -> None:
+    """Review case: a 0.5 fps video was taken for a broken container rate (30 fps assumed) and its 2 s intervals
+    for corrupt times (60 x too fast)."""
+    times = [2.0 * k for k in range(10)]
+    write_video(tmp_path / "lapse.mp4", [np.full((48, 64, 3), 20 * k, np.uint8) for k in range(10)], times)
+    with VideoFile(tmp_path / "lapse.mp4") as video:
+        assert np.allclose([t for t, _ in video], times, atol=0.0011)
+        assert video.times_guessed == 0
 
 
 @pytest.fixture(scope="module")

@@ -96,8 +96,8 @@ def test_live_monitor_reads_a_lens_cap_as_unknown_not_standing(
 ) -> None:
     """The same covered lens through ``walkmon live`` (the clip replayed): the held frames measure nothing, so the
     hops inside the cap say the activity is unknown (why in the reasons, and on the wearer's status line), never
-    standing, and the walking before and after it is found. Before, every held frame went into the live indicators as a real sample: the monitor
-    told a walking person 'standing' from 1.5 s into the cap on."""
+    standing, and the walking before and after it is found. Before, every held frame went into the live
+    indicators as a real sample: the monitor told a walking person 'standing' from 1.5 s into the cap on."""
     from walkmon.live.session_log import list_sessions, open_database, read_session_table
 
     data = tmp_path / "data"

@@ -165,8 +165,8 @@ def test_an_alert_cleared_by_a_covered_lens_says_so() -> None:
     stage = AlertStage()
     raised = feed(stage, [ind(float(t), pitch=-15.0) for t in range(0, 8)])
     assert [e.state for e in raised] == ["raised"]
-    blind = dataclasses.replace(ind(8.0, walking=False), activity="unknown", label="not_walking",
-                                reasons=("nothing measured for 2.0 s: the camera's view held (covered, dark or featureless)",))
+    why = "nothing measured for 2.0 s: the camera's view held (covered, dark or featureless)"
+    blind = dataclasses.replace(ind(8.0, walking=False), activity="unknown", label="not_walking", reasons=(why,))
     (ev,) = stage.push(blind)
     assert ev.state == "cleared" and ev.message == "nothing measured for 2.0 s: alert cleared"
     stage = AlertStage()

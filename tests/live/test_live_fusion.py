@@ -404,7 +404,8 @@ def test_a_held_frame_the_imu_carried_still_counts_live(tmp_path: Path, GaitSour
             if self.i >= len(imu.t_s):
                 raise SourceDisconnected("test:imu: end")
             k, self.i = self.i, self.i + 1
-            return ImuBatch((ImuSample(float(imu.t_s[k]), tuple(imu.gyroscope_rps[k]), tuple(imu.accelerometer_mps2[k])),))
+            sample = ImuSample(float(imu.t_s[k]), tuple(imu.gyroscope_rps[k]), tuple(imu.accelerometer_mps2[k]))
+            return ImuBatch((sample,))
 
         def close(self) -> None:
             pass

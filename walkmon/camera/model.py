@@ -323,8 +323,8 @@ def camera_for_frames(camera: CameraModel, width_px: int, height_px: int, rotati
         from walkmon.errors import InvalidInputError  # noqa: PLC0415
 
         msg = (f"the video is shown turned {90 * quarter} deg, so the camera's rolling-shutter readout runs "
-               f"{'across' if quarter % 2 else 'up'} its frames, which walkmon's correction cannot model: give "
-               "--readout-ms 0 (or a calibration without readout_s)")
+               f"{'across' if quarter % 2 else 'up'} its frames, which walkmon's correction cannot model: turn it off "
+               "(analyze --readout-ms 0, or a calibration without readout_s)")
         raise InvalidInputError(msg)
     calib, frames = camera.width_px / camera.height_px, width_px / height_px
 

@@ -124,7 +124,8 @@ class CameraAwareEstimator:
         cam = self._calib or self._source.camera_model()
         if cam is None:
             cam = default_camera(w, h, self._hfov)
-            _log.info("no calibration: default intrinsics for a %g deg horizontal field of view", self._hfov)
+            _log.info("no calibration: default intrinsics for a %g deg field of view across the frames' longer side",
+                      self._hfov)
         elif (cam.width_px, cam.height_px) != (w, h):
             _log.info("calibration is for %dx%d, frames are %dx%d: fitted", cam.width_px, cam.height_px, w, h)
         # a replayed file's display rotation (a phone's portrait video) turns a calibration of its sensor

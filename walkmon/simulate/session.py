@@ -56,7 +56,8 @@ SIMULATION_HFOV_DEG = 70.0
 
 
 def simulation_camera(width: int = 640, height: int = 480, distortion: bool = False) -> CameraModel:
-    """The simulated camera: 70° horizontal field of view, square pixels, optional barrel distortion."""
+    """The simulated camera: 70° field of view across the longer image side (horizontal for landscape sizes),
+    square pixels, optional barrel distortion."""
     if not (16 <= int(width) <= 4096 and 16 <= int(height) <= 4096):
         msg = f"image size must be between 16 and 4096 pixels a side, got {width}x{height}"
         raise InvalidInputError(msg)
