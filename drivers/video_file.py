@@ -3,21 +3,24 @@
 A frame's time is its presentation time in the container (``t`` starts at 0 with the first frame; two analyses of
 one file agree). Phones record at a variable frame rate (fewer frames in dim light): ``i / fps`` with the
 container's mean rate put frame 60 of a clip that went from 30 to 15 fps at 2.64 s instead of 2.00 s, and read
-its cadence 24 % low then 51 % high. The reader decodes one frame ahead, so a frame's time is judged against both
-its neighbours: an unusable one (none, which FFmpeg reports as 0; not after the frame before; more than
-:func:`max_interval_s` after the last good one; or after the next frame's, which itself fits) is put halfway
-between its neighbours, so one bad time moves no other frame (it had shifted the rest of a video: +100 s after
-one corrupt time, +0.5 s after a missing one); when the next frame follows on from the bad one instead (joined
-files, a reset clock), the times go on from ``1 / fps`` after the frame before with their own intervals. Such
-frames are counted in ``times_guessed`` and, beyond the two a decoder's last buffered frames may lack, reported
-in one warning line when the file is read to its end or closed. A real pause longer than :func:`max_interval_s`
-inside one file is shortened to ``1 / fps`` (the frames after it are then early against an IMU's clock).
+its cadence 24 % low then 51 % high. The reader decodes :data:`LOOKAHEAD_FRAMES` frames ahead and judges each
+frame's time against the frames before and after it: an unusable one (none, which FFmpeg reports as 0; not after
+the frame before; more than :func:`max_interval_s` after the last good one; or later than most of the frames
+after it) is spread evenly between the good times either side, so a short run of bad times moves no other frame
+(one corrupt time 100 s late had shifted the rest of a video by 100 s; a missing one, or two late ones, by a few
+tenths of a second). When no good time follows within the look-ahead but the next frame follows on from the bad
+one (joined files, a reset clock), the times go on from ``1 / fps`` after the frame before with their own
+intervals. Such frames are counted in ``times_guessed`` and, beyond the two a decoder's last buffered frames may
+lack, reported in one warning line when the file is read to its end or closed. A real pause longer than
+:func:`max_interval_s` inside one file is shortened to ``1 / fps`` (the frames after it are then early against an
+IMU's clock), and the last frame's time cannot be checked against a later one.
 ``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
 0 lets FFmpeg choose).
 """
 
 from __future__ import annotations
 
+import collections
 import logging
 import math
 import os
@@ -39,6 +42,11 @@ DEFAULT_FPS = 30.0
 #: A frame more than this after the last good one is timed 1 / fps after the frame before instead (module
 #: docstring), s: a phone in darkness records a few frames a second; a longer interval is a corrupt or reset time.
 MAX_FRAME_INTERVAL_S = 1.0
+
+
+#: Frames decoded ahead of the one returned: a run of up to this many frames with bad times is found as such (its
+#: frames put between the good times either side) instead of being taken for a new time line.
+LOOKAHEAD_FRAMES = 4
 
 
 def max_interval_s(fps: float) -> float:
@@ -85,10 +93,9 @@ class VideoFile:
         self.rotation_deg = float(round(rotation / 90.0) * 90 % 360) if math.isfinite(rotation) else 0.0
         self._cap = cap
         self._index = 0  # frames returned
-        self._decoded = 0  # frames decoded (one ahead of those returned)
-        self._pts_first_s: float | None = None
-        self._pts_span_s = 0.0  # the decoded frames' latest time from the first's (the damage check)
-        self._ahead: tuple[float, NDArray[np.uint8]] | None | bool = False  # the next frame (False: none read yet)
+        self._decoded = 0  # frames decoded (up to LOOKAHEAD_FRAMES ahead of those returned)
+        self._ahead: collections.deque[tuple[float, NDArray[np.uint8]]] = collections.deque()
+        self._eof = False
         self._pts0_s: float | None = None  # the presentation time that is t = 0 (moved by a new time line)
         self._last_t_s = 0.0  # the frame before's time
         self._good_t_s = 0.0  # the last frame whose own time was used
@@ -101,16 +108,19 @@ class VideoFile:
         if self._cap is None:
             msg = f"{self.path}: video is closed"
             raise SourceError(msg)
-        if self._ahead is False:
-            self._ahead = self._decode()
-        current = self._ahead
-        if not isinstance(current, tuple):
+        while not self._eof and len(self._ahead) <= LOOKAHEAD_FRAMES:  # a frame's time is judged against those after
+            item = self._decode()
+            if item is None:
+                self._eof = True
+            else:
+                self._ahead.append(item)
+        if not self._ahead:
+            self._check_complete()
             return None
-        self._ahead = self._decode()  # one frame ahead: a frame's time is judged against both its neighbours
-        following = self._ahead[0] if isinstance(self._ahead, tuple) else None
-        t_s = self._frame_time_s(current[0], following)
+        pts, frame = self._ahead.popleft()
+        t_s = self._frame_time_s(pts, [p for p, _ in self._ahead])
         self._index += 1
-        return t_s, current[1]
+        return t_s, frame
 
     def _decode(self) -> tuple[float, NDArray[np.uint8]] | None:
         """The next decoded frame with its presentation time in the container (s; NaN when none), or None at the
@@ -120,51 +130,56 @@ class VideoFile:
         assert self._cap is not None
         ok, frame = self._cap.read()
         if not ok or frame is None:
-            if self._decoded == 0:
-                msg = f"{self.path}: no decodable frames (corrupt or empty video)"
-                raise SourceError(msg)
-            span = self._pts_span_s + 1.0 / self.fps  # the decoded frames' time (a container's count may be an
-            expected = self.frame_count / self.fps  # estimate from its duration, as an MPEG-TS's is)
-            if (self._decoded < self.frame_count - max(2, self.frame_count // 100)
-                    and span < expected - max(2.0 / self.fps, 0.01 * expected)):
-                # the container lists more frames than could be decoded: damaged mid-file. Analysing the first
-                # part as if it were the whole walk would be silently wrong, so it is an error.
-                msg = (f"{self.path}: the video is damaged: decoding failed at frame {self._decoded} of "
-                       f"{self.frame_count} ({self._decoded / self.fps:.1f} s of {self.frame_count / self.fps:.1f} s); "
-                       "re-encode the readable part (e.g. ffmpeg -i VIDEO -c:v libx264 fixed.mp4) and analyse that")
-                raise InvalidInputError(msg)
             return None
         self._decoded += 1
         pts = float(self._cap.get(cv2.CAP_PROP_POS_MSEC)) / 1000.0
         # FFmpeg reports a frame without a time as 0: only the first frame may have it
-        pts = pts if math.isfinite(pts) and (pts != 0.0 or self._decoded == 1) else math.nan
-        if math.isfinite(pts):
-            self._pts_first_s = pts if self._pts_first_s is None else self._pts_first_s
-            self._pts_span_s = max(self._pts_span_s, pts - self._pts_first_s)
-        return pts, frame
+        return (pts if math.isfinite(pts) and (pts != 0.0 or self._decoded == 1) else math.nan), frame
 
-    def _frame_time_s(self, pts: float, following: float | None) -> float:
-        """A frame's time from its presentation time ``pts`` and the next frame's (``following``; None at the end):
-        module docstring."""
+    def _check_complete(self) -> None:
+        """At the end: refuse a file with no frame, or one that ends well before its container says (damaged)."""
+        if self._decoded == 0:
+            msg = f"{self.path}: no decodable frames (corrupt or empty video)"
+            raise SourceError(msg)
+        span = self._last_t_s + 1.0 / self.fps  # the frames' time (a container's count may be an estimate from its
+        expected = self.frame_count / self.fps  # duration, as an MPEG-TS's is)
+        if (self._decoded < self.frame_count - max(2, self.frame_count // 100)
+                and span < expected - max(2.0 / self.fps, 0.01 * expected)):
+            # the container lists more frames than could be decoded: damaged mid-file. Analysing the first part as
+            # if it were the whole walk would be silently wrong, so it is an error.
+            msg = (f"{self.path}: the video is damaged: decoding failed at frame {self._decoded} of "
+                   f"{self.frame_count} ({self._decoded / self.fps:.1f} s of {self.frame_count / self.fps:.1f} s); "
+                   "re-encode the readable part (e.g. ffmpeg -i VIDEO -c:v libx264 fixed.mp4) and analyse that")
+            raise InvalidInputError(msg)
+
+    def _frame_time_s(self, pts: float, following: list[float]) -> float:
+        """A frame's time from its presentation time ``pts`` and those of the frames after it (``following``, up to
+        :data:`LOOKAHEAD_FRAMES`): module docstring."""
         if self._pts0_s is None:
             self._pts0_s = pts if math.isfinite(pts) else 0.0
             return 0.0
         limit, step = max_interval_s(self.fps), 1.0 / self.fps
         last, good = self._last_t_s, self._good_t_s
         t = pts - self._pts0_s
-        nxt = math.nan if following is None else following - self._pts0_s
+        later = [f - self._pts0_s for f in following]
 
         def fits(x: float) -> bool:  # after the frame before, and not too far after the last good one
             return math.isfinite(x) and last < x <= good + limit
 
-        if fits(t) and not (fits(nxt) and nxt < t):
-            self._last_t_s = self._good_t_s = t  # its own time (the next frame's, if any, comes after it)
+        def outrun(i: int, x: float) -> bool:  # most of the frames after it have earlier times: x is too late
+            after = [y for y in later[i:] if math.isfinite(y)]
+            return 2 * sum(y < x for y in after) > len(after)
+
+        if fits(t) and not outrun(0, t):
+            self._last_t_s = self._good_t_s = t  # its own time
             return t
         self.times_guessed += 1
-        if fits(nxt) and nxt - last > 1e-9:
-            t = 0.5 * (last + nxt)  # one bad time between two that fit: between them
-        elif math.isfinite(pts) and following is not None and 0.0 < following - pts <= limit:
-            # the next frame follows on from this one, not from the frames before: a new time line (joined files,
+        anchor = next(((i, y) for i, y in enumerate(later) if fits(y) and not outrun(i + 1, y)), None)
+        if anchor is not None:
+            i, y = anchor  # a bad run between good times: spread evenly between them
+            t = last + (y - last) / (i + 2)
+        elif math.isfinite(pts) and following and 0.0 < following[0] - pts <= limit:
+            # the frames after follow on from this one, not from the frames before: a new time line (joined files,
             # a reset clock); it goes on from here with its own intervals
             t = last + step
             self._pts0_s = pts - t

@@ -19,6 +19,7 @@ av = pytest.importorskip("av")  # a test dependency (pyproject [test])
 
 from walkmon.commands.cli import main  # noqa: E402
 from walkmon.drivers.video_file import VideoFile  # noqa: E402
+from walkmon.errors import InvalidInputError  # noqa: E402
 
 
 def write_video(path: Path, frames: list[np.ndarray], times_s: list[float], *, fmt: str | None = None,
@@ -108,26 +109,51 @@ class _ScriptedTimes:
         pass
 
 
+def _scripted(tmp_path: Path, times_ms: list[float | None]) -> VideoFile:
+    """A VideoFile whose capture gives ``times_ms`` (the container's other facts from a real 3-frame file)."""
+    write_video(tmp_path / "v.mp4", [np.zeros((48, 64, 3), np.uint8)] * 3, [0.0, 1 / 30, 2 / 30])
+    video = VideoFile(tmp_path / "v.mp4")
+    video._cap.release()
+    video._cap = _ScriptedTimes(times_ms)  # the capture's times, scripted
+    return video
+
+
 @pytest.mark.parametrize(("case", "edit"), [
     ("a time 0.5 s early", {20: -500.0}),
     ("no time (FFmpeg's 0)", {15: None}),
     ("a time 0.3 s late", {40: 300.0}),
     ("a NaN time", {10: float("nan")}),
+    ("two times 0.3 s late", {40: 300.0, 41: 300.0}),
+    ("two times 0.5 s early", {40: -500.0, 41: -500.0}),
+    ("two times 0.1 s early", {40: -100.0, 41: -100.0}),
+    ("a late time, then none", {40: 300.0, 41: None}),
+    ("two late times", {40: 300.0, 41: 600.0}),
+    ("the next time a little early", {31: -50.0}),
 ])
-def test_one_bad_time_moves_no_other_frame(tmp_path: Path, case: str, edit: dict) -> None:
-    """Review cases: a frame time a little early or late, or missing (FFmpeg reports 0), had re-based the rest of
-    the video on it (every later frame 0.5 s late, silently). The reader looks one frame ahead: the bad frame is
-    put halfway between its neighbours (here its true time), and the rest keep their own times."""
-    write_video(tmp_path / "v.mp4", [np.zeros((48, 64, 3), np.uint8)] * 3, [0.0, 1 / 30, 2 / 30])
+def test_a_short_run_of_bad_times_moves_no_other_frame(tmp_path: Path, case: str, edit: dict) -> None:
+    """Review cases: a frame time a little early or late, or missing (FFmpeg reports 0), and then two in a row,
+    had re-based the rest of the video on them (every later frame 0.1-0.6 s off, silently). The reader looks four
+    frames ahead: the bad frames are spread between the good times either side (here their true times), and the
+    rest keep their own."""
     true = [k * 1000 / 30 for k in range(90)]
     times = [true[k] + edit[k] if k in edit and edit[k] is not None else (None if k in edit else true[k])
              for k in range(90)]
-    with VideoFile(tmp_path / "v.mp4") as video:
-        video._cap.release()
-        video._cap = _ScriptedTimes(times)  # the capture's times, scripted
+    with _scripted(tmp_path, times) as video:
         got = np.array([t for t, _ in video])
-        assert video.times_guessed == 1, case
+        assert video.times_guessed == len(edit), case
     assert np.allclose(got, np.array(true) / 1000, atol=1e-9), case
+
+
+def test_a_corrupt_late_time_does_not_hide_a_damaged_file(tmp_path: Path) -> None:
+    """Review case: the container lists 300 frames, 150 decode, one of them 100 s late: the check for a damaged
+    file measured the decoded frames' span with that time and let half a walk pass as the whole one."""
+    times: list[float | None] = [k * 1000 / 30 for k in range(150)]
+    times[100] = float(times[100] or 0.0) + 100_000.0
+    video = _scripted(tmp_path, times)
+    video.frame_count = 300
+    with video, pytest.raises(InvalidInputError, match="damaged: decoding failed at frame 150 of 300"):
+        for _ in video:
+            pass
 
 
 def test_a_time_lapse_below_one_frame_a_second_keeps_its_times(tmp_path: Path) -> None:
