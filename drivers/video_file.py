@@ -39,11 +39,9 @@ _log = logging.getLogger(__name__)
 
 #: Frame rate assumed when the container does not give a plausible one.
 DEFAULT_FPS = 30.0
-#: A frame more than this after the last good one is timed 1 / fps after the frame before instead (module
-#: docstring), s: a phone in darkness records a few frames a second; a longer interval is a corrupt or reset time.
+#: A frame more than this after the last good one has a bad time (module docstring), s: a phone in darkness
+#: records a few frames a second; a longer interval is a corrupt or reset time.
 MAX_FRAME_INTERVAL_S = 1.0
-
-
 #: Frames decoded ahead of the one returned: a run of up to this many frames with bad times is found as such (its
 #: frames put between the good times either side) instead of being taken for a new time line.
 LOOKAHEAD_FRAMES = 4
@@ -192,9 +190,9 @@ class VideoFile:
     def _report_guessed(self) -> None:
         if self.times_guessed > 2 and not self._reported:  # a decoder's last buffered frames may lack a time
             self._reported = True
-            _log.warning("%s: %d frames had no usable time in the container (none, going back, or over %g s after "
-                         "the one before): each timed 1/%g s after the frame before it", self.path,
-                         self.times_guessed, max_interval_s(self.fps), self.fps)
+            _log.warning("%s: %d frames had no usable time in the container (none, going back, over %g s after the "
+                         "one before, or after the frames that follow): each put between the good times either side",
+                         self.path, self.times_guessed, max_interval_s(self.fps))
 
     def __iter__(self) -> Iterator[tuple[float, NDArray[np.uint8]]]:
         while (item := self.read()) is not None:
