@@ -42,6 +42,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def status_line(h: Any) -> str:
     """One-line live status: frames/s, dropped, cadence, posture angles, label, alerts."""
+    from walkmon.gait.live import unmeasured_why  # noqa: PLC0415
+
     ind = h.indicators
 
     def f(v: float, fmt: str) -> str:
@@ -55,11 +57,9 @@ def status_line(h: Any) -> str:
         cam = sum(fusion["frames_camera_only"].values())
         imu = f" imu={fusion['mode'] or '-'} (fused {fusion['frames_fused']}, camera-only {cam})"
     activity = str(getattr(ind, "activity", "") or "-")
-    why = ind.reasons[0].split(":")[0] if activity == "unknown" and ind.reasons else ""
-    if why.startswith("nothing measured"):  # the camera saw nothing: say so, not just 'unknown'
-        activity = f"unknown ({why})"
-    elif why.startswith("measuring again"):
-        activity = "unknown (measuring again)"
+    why = unmeasured_why(activity, ind.reasons)  # the camera saw nothing: say so, not just 'unknown'
+    if why:
+        activity = f"unknown ({'measuring again' if why.startswith('measuring again') else why})"
     return (f"t={ind.t_s:7.1f}s {f(h.fps, '4.1f')}fps drop={h.dropped:<4d} cad={f(ind.cadence_spm, '5.1f')}spm "
             f"pitch={f(p, '+5.1f')} yaw={f(y, '+5.1f')} roll={f(r, '+5.1f')} {activity:<8s} {ind.label:<18s} "
             f"alert={alerts}{imu}")

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import collections
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,6 +55,7 @@ __all__ = [
     "cycle_extremes",
     "gait_band_rms_deg",
     "resample_uniform",
+    "unmeasured_why",
 ]
 
 LABELS = ("normal", "bend", "left_shoulder_down", "right_foot_drag", "not_walking", "unclassified")
@@ -196,6 +198,19 @@ class LiveIndicators:
 
 
 # ----------------------------------------------------------------------------------------------- pure maths
+
+
+#: How the reason of a hop in which the camera measured nothing begins (:meth:`LiveIndicatorStage._unmeasured`);
+#: the status line, the alerts and the dashboard tell such hops from other unknown ones by it (:func:`unmeasured_why`).
+UNMEASURED_REASONS = ("nothing measured", "measuring again")
+
+
+def unmeasured_why(activity: str | None, reasons: Sequence[object]) -> str:
+    """Why a hop is unknown in a few words (its first reason up to the colon) when the camera measured nothing in
+    it (:data:`UNMEASURED_REASONS`), else ''. Takes the hop's activity and reasons as :class:`LiveIndicators`
+    holds them or as its JSON in the session log gives them back."""
+    why = str(reasons[0]).split(":")[0] if activity == "unknown" and reasons else ""
+    return why if why.startswith(UNMEASURED_REASONS) else ""
 
 
 #: After nothing was measured for ``max_gap_s`` (a covered lens), hops stay ``unknown`` for this long once measuring
@@ -445,11 +460,11 @@ class LiveIndicatorStage:
         last = self._last_measured_t
         if t_now - last > self.settings.max_gap_s:
             since = f"for {t_now - last:.1f} s" if math.isfinite(last) else "since the start"
-            why = f"nothing measured {since}: the camera's view held (covered, dark or featureless)"
+            why = f"{UNMEASURED_REASONS[0]} {since}: the camera's view held (covered, dark or featureless)"
         elif self._resumed is not None and t_now - self._resumed[0] < RESUME_S:
             gap = self._resumed[1]
-            why = (f"measuring again after nothing measured for {gap:.1f} s" if math.isfinite(gap)
-                   else "measuring again after nothing measured since the start")
+            why = (f"{UNMEASURED_REASONS[1]} after nothing measured for {gap:.1f} s" if math.isfinite(gap)
+                   else f"{UNMEASURED_REASONS[1]} after nothing measured since the start")
         else:
             return None
         nan3 = (math.nan, math.nan, math.nan)

@@ -25,7 +25,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from walkmon.gait.live import LiveIndicators
+from walkmon.gait.live import LiveIndicators, unmeasured_why
 
 __all__ = ["CONDITIONS", "DEFAULT_ALERT_SETTINGS", "AlertEvent", "AlertSettings", "AlertStage"]
 
@@ -144,8 +144,7 @@ def _measures(s: AlertSettings) -> dict[str, tuple[Callable[[LiveIndicators], fl
 
 def _not_walking_why(ind: LiveIndicators) -> str:
     """Why a hop is no walking, in a few words: 'not walking', or that nothing was measured (a covered lens)."""
-    why = str(ind.reasons[0]).split(":")[0] if ind.activity == "unknown" and ind.reasons else ""
-    return why if why.startswith(("nothing measured", "measuring again")) else "not walking"
+    return unmeasured_why(ind.activity, ind.reasons) or "not walking"
 
 
 class AlertStage:

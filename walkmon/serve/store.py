@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from walkmon.errors import InvalidInputError
+from walkmon.gait.live import unmeasured_why
 from walkmon.views.history import SessionStats, local_time
 
 __all__ = ["DEFAULT_THRESHOLDS", "Store"]
@@ -247,7 +248,7 @@ class Store:
                     activity = doc.get("activity")
                     reasons = (doc.get("classification") or {}).get("reasons") or []
                     # a hop in which the camera measured nothing (a covered lens: LiveIndicatorStage.push_unmeasured)
-                    unseen = any(str(r).startswith(("nothing measured", "measuring again")) for r in reasons)
+                    unseen = isinstance(reasons, list) and bool(unmeasured_why(activity, reasons))
                 except (ValueError, AttributeError):
                     activity = None
             cols["t_s"].append(_num(_f(t)))
