@@ -5,6 +5,8 @@ from __future__ import annotations
 import os
 import random
 import struct
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -90,3 +92,38 @@ def write_display_rotation(path: Path, degrees: int) -> None:
 def set_display_rotation():  # noqa: ANN201
     """:func:`write_display_rotation` for tests (mark an mp4 as shown turned)."""
     return write_display_rotation
+
+
+class SimulatedVideos:
+    """Helpers for tests that make a simulated walk's video into another one (a covered lens, a variable frame
+    rate, a display rotation): render it through the CLI, and read its frames back."""
+
+    @staticmethod
+    def render(out: Path, walk: str, width: int, height: int, seed: int) -> Path:
+        """``walkmon simulate`` into ``out`` (video.mp4, camera.yaml, truth files); returns ``out``."""
+        subprocess.run([sys.executable, "-m", "walkmon", "simulate", "--walk", walk, "--width", str(width),
+                        "--height", str(height), "--seed", str(seed), "--out", str(out)],
+                       check=True, capture_output=True, timeout=300)
+        return out
+
+    @staticmethod
+    def frames(path: Path) -> tuple[float, list[np.ndarray]]:
+        """The container's frame rate and every frame of the video at ``path``, in order."""
+        import cv2
+
+        src = cv2.VideoCapture(str(path))
+        fps = float(src.get(cv2.CAP_PROP_FPS))
+        frames = []
+        while True:
+            ok, frame = src.read()
+            if not ok:
+                break
+            frames.append(frame)
+        src.release()
+        return fps, frames
+
+
+@pytest.fixture(scope="session")
+def simulated_videos() -> SimulatedVideos:
+    """:class:`SimulatedVideos`."""
+    return SimulatedVideos()

@@ -4,8 +4,6 @@ of stretched (which gave silently wrong angles)."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
@@ -76,10 +74,8 @@ def test_another_image_shape_is_refused_not_stretched() -> None:
 
 
 @pytest.fixture(scope="module")
-def portrait(tmp_path_factory: pytest.TempPathFactory, set_display_rotation) -> Path:  # noqa: ANN001
-    d = tmp_path_factory.mktemp("portrait")
-    subprocess.run([sys.executable, "-m", "walkmon", "simulate", "--walk", "normal:6", "--width", "320",
-                    "--height", "240", "--seed", "2", "--out", str(d)], check=True, capture_output=True, timeout=300)
+def portrait(tmp_path_factory: pytest.TempPathFactory, set_display_rotation, simulated_videos) -> Path:  # noqa: ANN001
+    d = simulated_videos.render(tmp_path_factory.mktemp("portrait"), "normal:6", 320, 240, seed=2)
     (d / "portrait.mp4").write_bytes((d / "video.mp4").read_bytes())
     set_display_rotation(d / "portrait.mp4", 90)
     return d

@@ -6,8 +6,6 @@ frame at its true time)."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from fractions import Fraction
 from pathlib import Path
 
@@ -167,24 +165,11 @@ def test_a_time_lapse_below_one_frame_a_second_keeps_its_times(tmp_path: Path) -
 
 
 @pytest.fixture(scope="module")
-def walk_vfr(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    d = tmp_path_factory.mktemp("vfr-walk")
-    subprocess.run([sys.executable, "-m", "walkmon", "simulate", "--walk", "normal:16", "--width", "320",
-                    "--height", "240", "--seed", "3", "--out", str(d)], check=True, capture_output=True, timeout=300)
-    src = cv2.VideoCapture(str(d / "video.mp4"))
-    fps = src.get(cv2.CAP_PROP_FPS)
-    frames, times = [], []
-    i = 0
-    while True:
-        ok, img = src.read()
-        if not ok:
-            break
-        t = i / fps
-        if t < 6.0 or i % 2 == 0:  # 30 fps, then 15 fps (a phone in dim light)
-            frames.append(img)
-            times.append(t)
-        i += 1
-    write_video(d / "vfr.mp4", frames, times)
+def walk_vfr(tmp_path_factory: pytest.TempPathFactory, simulated_videos) -> Path:  # noqa: ANN001
+    d = simulated_videos.render(tmp_path_factory.mktemp("vfr-walk"), "normal:16", 320, 240, seed=3)
+    fps, all_frames = simulated_videos.frames(d / "video.mp4")
+    kept = [i for i in range(len(all_frames)) if i / fps < 6.0 or i % 2 == 0]  # 30 fps, then 15 (dim light)
+    write_video(d / "vfr.mp4", [all_frames[i] for i in kept], [i / fps for i in kept])
     return d
 
 

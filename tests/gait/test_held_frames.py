@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import csv
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
@@ -18,20 +16,12 @@ CAP = (6.0, 10.0)  # the lens is covered (black frames) from 6 to 10 s of an 18 
 
 
 @pytest.fixture(scope="module")
-def capped(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    d = tmp_path_factory.mktemp("capped")
-    subprocess.run([sys.executable, "-m", "walkmon", "simulate", "--walk", "normal:14", "--width", "160",
-                    "--height", "120", "--seed", "4", "--out", str(d)], check=True, capture_output=True, timeout=300)
-    src = cv2.VideoCapture(str(d / "video.mp4"))
-    fps = src.get(cv2.CAP_PROP_FPS)
+def capped(tmp_path_factory: pytest.TempPathFactory, simulated_videos) -> Path:  # noqa: ANN001
+    d = simulated_videos.render(tmp_path_factory.mktemp("capped"), "normal:14", 160, 120, seed=4)
+    fps, frames = simulated_videos.frames(d / "video.mp4")
     out = cv2.VideoWriter(str(d / "capped.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), fps, (160, 120))
-    i = 0
-    while True:
-        ok, frame = src.read()
-        if not ok:
-            break
+    for i, frame in enumerate(frames):
         out.write(np.zeros_like(frame) if CAP[0] <= i / fps < CAP[1] else frame)
-        i += 1
     out.release()
     return d
 
