@@ -94,6 +94,12 @@ def set_display_rotation():  # noqa: ANN201
     return write_display_rotation
 
 
+@pytest.fixture(scope="session")
+def mp4_boxes():  # noqa: ANN201
+    """:func:`_boxes` for tests (the boxes of an mp4, to edit one in place)."""
+    return _boxes
+
+
 class SimulatedVideos:
     """Helpers for tests that make a simulated walk's video into another one (a covered lens, a variable frame
     rate, a display rotation): render it through the CLI, and read its frames back."""

@@ -6,6 +6,7 @@ frame at its true time)."""
 from __future__ import annotations
 
 import json
+import struct
 from fractions import Fraction
 from pathlib import Path
 
@@ -16,7 +17,7 @@ import pytest
 av = pytest.importorskip("av")  # a test dependency (pyproject [test])
 
 from walkmon.commands.cli import main  # noqa: E402
-from walkmon.drivers.video_file import VideoFile  # noqa: E402
+from walkmon.drivers.video_file import VideoFile, edited_duration_s  # noqa: E402
 from walkmon.errors import InvalidInputError  # noqa: E402
 
 
@@ -162,6 +163,65 @@ def test_a_time_lapse_below_one_frame_a_second_keeps_its_times(tmp_path: Path) -
     with VideoFile(tmp_path / "lapse.mp4") as video:
         assert np.allclose([t for t, _ in video], times, atol=0.0011)
         assert video.times_guessed == 0
+
+
+def trim_by_edit_list(path: Path, start_s: float, shown_s: float, boxes) -> None:  # noqa: ANN001
+    """Trim an mp4 as a phone or ``ffmpeg -ss START -t SHOWN -c copy`` does, without re-encoding: its video
+    track's edit list ('elst', written in place over the one-entry list FFmpeg's muxer writes) shows ``shown_s``
+    from ``start_s`` of its media; every sample stays in the file. Movie and media timescales are 1000 here."""
+    data = bytearray(path.read_bytes())
+
+    def child(span: tuple[int, int], kind: bytes) -> tuple[int, int]:
+        (found,) = [(a, b) for k, a, b in boxes(data, *span) if k == kind]
+        return found
+
+    moov = child((0, len(data)), b"moov")
+    trak = child(moov, b"trak")
+    movie_scale = int.from_bytes(data[child(moov, b"mvhd")[0] + 12 : child(moov, b"mvhd")[0] + 16], "big")
+    mdhd = child(child(trak, b"mdia"), b"mdhd")[0]
+    media_scale = int.from_bytes(data[mdhd + 12 : mdhd + 16], "big")  # version 0 boxes (FFmpeg's, this short)
+    elst = child(child(trak, b"edts"), b"elst")
+    assert data[elst[0]] == 0 and int.from_bytes(data[elst[0] + 4 : elst[0] + 8], "big") == 1  # one entry
+    data[elst[0] + 8 : elst[0] + 20] = struct.pack(">IiI", round(shown_s * movie_scale),
+                                                   round(start_s * media_scale), 0x10000)
+    path.write_bytes(bytes(data))
+
+
+def test_a_clip_trimmed_by_its_edit_list_is_read_not_refused(tmp_path: Path, mp4_boxes) -> None:  # noqa: ANN001
+    """A 3 s clip trimmed to 1.0-2.5 s without re-encoding: FFmpeg decodes the 45 frames shown, the container
+    lists 90, and the reader refused it as damaged ("decoding failed at frame 45 of 90"). It reads the shown
+    frames, in order, timed from 0; a trimmed clip damaged mid-file is still refused."""
+    rng = np.random.default_rng(1)
+    frames = [rng.integers(0, 255, (48, 64, 3), dtype=np.uint8) for _ in range(90)]
+    write_video(tmp_path / "clip.mp4", frames, [k / 30 for k in range(90)])
+    assert edited_duration_s(tmp_path / "clip.mp4") == pytest.approx(3.0, abs=0.002)
+    trim_by_edit_list(tmp_path / "clip.mp4", 1.0, 1.5, mp4_boxes)
+    assert edited_duration_s(tmp_path / "clip.mp4") == pytest.approx(1.5)
+    with VideoFile(tmp_path / "clip.mp4") as video:
+        assert video.frame_count == 45
+        got = list(video)
+    assert np.allclose([t for t, _ in got], [k / 30 for k in range(45)], atol=0.0011)
+    # each decoded frame is the written frame it shows (lossy codec: nearest of the 90 by mean difference)
+    shown = [int(np.argmin([np.abs(f.astype(int) - g.astype(int)).mean() for g in frames])) for _, f in got]
+    assert shown == list(range(30, 75))
+
+    data = bytearray((tmp_path / "clip.mp4").read_bytes())
+    (mdat,) = [(a, b) for k, a, b in mp4_boxes(data, 0, len(data)) if k == b"mdat"]
+    n = mdat[1] - mdat[0]
+    data[mdat[0] + int(0.45 * n) : mdat[0] + int(0.75 * n)] = bytes(int(0.75 * n) - int(0.45 * n))
+    (tmp_path / "damaged.mp4").write_bytes(bytes(data))
+    with VideoFile(tmp_path / "damaged.mp4") as video, pytest.raises(InvalidInputError, match=r"damaged.* of 45 "):
+        for _ in video:
+            pass
+
+
+def test_a_file_without_an_edit_list_has_no_edited_duration(tmp_path: Path) -> None:
+    frames = [np.full((48, 64, 3), 9 * k, np.uint8) for k in range(10)]
+    write_video(tmp_path / "clip.ts", frames, [k / 30 for k in range(10)], fmt="mpegts")
+    assert edited_duration_s(tmp_path / "clip.ts") is None  # no ISO base media file
+    (tmp_path / "junk.mp4").write_bytes(b"\x00\x00\x00\x08moov" + bytes(3))  # a box cut short
+    assert edited_duration_s(tmp_path / "junk.mp4") is None
+    assert edited_duration_s(tmp_path / "missing.mp4") is None
 
 
 @pytest.fixture(scope="module")
