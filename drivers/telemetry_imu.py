@@ -36,7 +36,12 @@ faster than 1.5 x its rate over whole bursts, on consecutive gyroscope times, is
 from its first sample at the stream's own rate; a stream with dropouts of its own is left as it is.
 
 The clock: the timestamps are the telemetry track's, which starts with the video but is not frame-exact (a
-frame or two on GoPro). ``walkmon analyze`` estimates the remaining offset from gyro vs visual rates
+frame or two on GoPro). telemetry-parser times every sample from its track's media start and applies no edit
+list, so in a clip trimmed without re-encoding (its tracks' edit lists show them from the cut on) the samples
+were off the frames by the trim (4 s on karma.mp4 trimmed at 4 s: the offset search, +-0.5 s, found no
+agreement and fused samples from 4 s earlier): they are moved onto the shown frames' clock by the tracks' edit
+lists (:func:`walkmon.drivers.mp4_edits.telemetry_shift_s`; ``shifted_s`` in imu.json). ``walkmon analyze``
+estimates the remaining offset from gyro vs visual rates
 (:func:`walkmon.imu.extrinsics.estimate_extrinsics`) unless ``--imu-offset-s`` is given.
 
 Gravity: newer GoPros (HERO8+) also write a ``GRAV`` stream (the camera's own gravity estimate);
@@ -56,6 +61,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walkmon.drivers.imu_types import ImuBatch, ImuSample
+from walkmon.drivers.mp4_edits import telemetry_shift_s
 from walkmon.errors import (
     ConfigError,
     InvalidInputError,
@@ -86,13 +92,16 @@ class TelemetryImuFile:
     accel_rate_hz: float
     #: the file's display rotation (clockwise), which its frames come turned by and the samples' axes with them
     axes_turned_deg: int = 0
+    #: added to telemetry-parser's times to put the samples on the shown frames' clock (a trimmed clip's edit
+    #: lists; 0 for an untrimmed one)
+    shifted_s: float = 0.0
 
     def to_dict(self) -> dict[str, object]:
         return {"camera": self.camera, "model": self.model, "samples": len(self.recording.t_s),
                 "gyro_rate_hz": round(self.gyro_rate_hz, 2), "accel_rate_hz": round(self.accel_rate_hz, 2),
                 "gravity_stream": self.has_gravity_stream,
                 "axes": "camera (x right, y down, z forward) from telemetry-parser's normalised axes",
-                "axes_turned_deg": self.axes_turned_deg}
+                "axes_turned_deg": self.axes_turned_deg, "shifted_s": round(self.shifted_s, 6)}
 
 
 def _parser(path: str | Path) -> Any:
@@ -162,6 +171,10 @@ def read_telemetry_imu(path: str | Path) -> TelemetryImuFile:
     recording = recording_from_normalized(np.array(t_g) / 1e3, np.array(g, dtype=float), np.array(t_a) / 1e3,
                                           np.array(a, dtype=float), source=f"{path}: {name}")
     tg = recording.t_s
+    shift = telemetry_shift_s(path)
+    if shift:
+        # a clip trimmed by its edit lists: the samples onto the shown frames' clock (module docstring)
+        recording = type(recording)(recording.t_s + shift, recording.gyroscope_rad_s, recording.accelerometer_m_s2)
     quarter = _display_quarter_turns(path)
     if quarter:
         # the file is shown turned (a portrait video): OpenCV turns its frames, so the camera axes the angles are
@@ -172,7 +185,7 @@ def read_telemetry_imu(path: str | Path) -> TelemetryImuFile:
         recording = type(recording)(recording.t_s, recording.gyroscope_rad_s @ M.T, recording.accelerometer_m_s2 @ M.T)
     return TelemetryImuFile(recording=recording, camera=camera, model=model, has_gravity_stream=_has_gravity(parser),
                             gyro_rate_hz=_rate(tg), accel_rate_hz=_rate(np.unique(np.array(t_a)) / 1e3),
-                            axes_turned_deg=90 * quarter)
+                            axes_turned_deg=90 * quarter, shifted_s=shift)
 
 
 def _display_quarter_turns(path: str | Path) -> int:

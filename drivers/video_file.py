@@ -18,7 +18,7 @@ IMU's clock), and the last frame's time cannot be checked against a later one.
 A file that decodes to fewer frames than its container lists is damaged and refused, unless an MP4/MOV edit
 list says so: a clip trimmed without re-encoding (a phone's trim, ``ffmpeg -ss ... -c copy``) keeps all the
 samples from the keyframe before its cut and shows only the edited part, which is what FFmpeg decodes. The
-frames expected are then the edits' duration (:func:`edited_duration_s`) at the container's rate.
+frames expected are then the edits' duration (:mod:`walkmon.drivers.mp4_edits`) at the container's rate.
 ``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
 0 lets FFmpeg choose).
 """
@@ -36,9 +36,10 @@ from types import TracebackType
 import numpy as np
 from numpy.typing import NDArray
 
+from walkmon.drivers.mp4_edits import edited_duration_s
 from walkmon.errors import InvalidInputError, SourceError
 
-__all__ = ["DEFAULT_FPS", "VideoFile", "edited_duration_s"]
+__all__ = ["DEFAULT_FPS", "VideoFile"]
 
 _log = logging.getLogger(__name__)
 
@@ -56,102 +57,6 @@ def max_interval_s(fps: float) -> float:
     """The longest interval between frames taken as real: :data:`MAX_FRAME_INTERVAL_S`, or three frames of a
     slower video (a time-lapse)."""
     return max(MAX_FRAME_INTERVAL_S, 3.0 / fps)
-
-
-#: The largest 'moov' box read for its edit list (a 'moov' indexes the samples: ~10 MB for an hour at 60 fps).
-_MAX_MOOV_BYTES = 64 * 1024 * 1024
-
-
-def _boxes(data: bytes, start: int, end: int) -> Iterator[tuple[bytes, int, int]]:
-    """(type, payload start, end) of the ISO/IEC 14496-12 boxes in ``data[start:end]``; stops at a malformed one."""
-    i = start
-    while i + 8 <= end:
-        size = int.from_bytes(data[i : i + 4], "big")
-        kind, header = bytes(data[i + 4 : i + 8]), 8
-        if size == 1 and i + 16 <= end:
-            size, header = int.from_bytes(data[i + 8 : i + 16], "big"), 16
-        elif size == 0:
-            size = end - i
-        if size < header or i + size > end:
-            return
-        yield kind, i + header, i + size
-        i += size
-
-
-def _read_moov(path: Path) -> bytes | None:
-    """The 'moov' box's payload of an ISO base media file (mp4, mov, 3gp), read without reading the media data;
-    None for another format or when there is none."""
-    with path.open("rb") as fh:
-        size_total = os.fstat(fh.fileno()).st_size
-        pos = 0
-        while pos + 8 <= size_total:
-            fh.seek(pos)
-            head = fh.read(16)
-            size = int.from_bytes(head[:4], "big")
-            kind, header = head[4:8], 8
-            if size == 1 and len(head) == 16:
-                size, header = int.from_bytes(head[8:16], "big"), 16
-            elif size == 0:
-                size = size_total - pos
-            if pos == 0 and kind not in (b"ftyp", b"moov", b"mdat", b"free", b"skip", b"wide", b"pnot"):
-                return None  # not an ISO base media file
-            if size < header:
-                return None
-            if kind == b"moov":
-                if size - header > _MAX_MOOV_BYTES:
-                    return None
-                fh.seek(pos + header)
-                return fh.read(size - header)
-            pos += size
-    return None
-
-
-def edited_duration_s(path: str | Path) -> float | None:
-    """The time an MP4/MOV's video track shows through its edit list (s): the sum of its edits that show media
-    (an empty edit, media time -1, delays the track and shows no frame), in the movie's timescale. None when the
-    file is no ISO base media file, its video track has no edit list, or the boxes cannot be read."""
-    try:
-        moov = _read_moov(Path(path))
-    except OSError:
-        return None
-    if moov is None:
-        return None
-    top = {k: (a, b) for k, a, b in _boxes(moov, 0, len(moov))}
-    if b"mvhd" not in top:
-        return None
-    a = top[b"mvhd"][0]
-    movie_scale = int.from_bytes(moov[a + 12 : a + 16] if moov[a] == 0 else moov[a + 20 : a + 24], "big")
-    if movie_scale <= 0:
-        return None
-    for kind, a, b in _boxes(moov, 0, len(moov)):
-        if kind != b"trak":
-            continue
-        inner = {k: (x, y) for k, x, y in _boxes(moov, a, b)}
-        mdia = {k: (x, y) for k, x, y in _boxes(moov, *inner.get(b"mdia", (0, 0)))}
-        hdlr = mdia.get(b"hdlr")
-        if hdlr is None or moov[hdlr[0] + 8 : hdlr[0] + 12] != b"vide" or b"edts" not in inner:
-            continue
-        elst = {k: (x, y) for k, x, y in _boxes(moov, *inner[b"edts"])}.get(b"elst")
-        if elst is None:
-            return None
-        x, end = elst
-        version, count = moov[x], int.from_bytes(moov[x + 4 : x + 8], "big")
-        width = 20 if version == 1 else 12
-        if count == 0 or x + 8 + count * width > end:
-            return None
-        shown = 0
-        for j in range(count):
-            e = x + 8 + j * width
-            if version == 1:
-                dur, media = int.from_bytes(moov[e : e + 8], "big"), int.from_bytes(moov[e + 8 : e + 16], "big",
-                                                                                    signed=True)
-            else:
-                dur, media = int.from_bytes(moov[e : e + 4], "big"), int.from_bytes(moov[e + 4 : e + 8], "big",
-                                                                                   signed=True)
-            if media != -1:
-                shown += dur
-        return shown / movie_scale if shown > 0 else None
-    return None
 
 
 class VideoFile:

@@ -250,3 +250,25 @@ def test_a_turned_video_turns_its_own_imus_axes_with_its_frames(
     assert main(["analyze", str(turned), "--imu", f"telemetry:{turned}", "--out", str(out), "--no-progress"]) == 0
     ext = json.loads((out / "imu.json").read_text())["extrinsics_estimate"]
     assert ext["rotation_deg"] < 8.0, ext
+
+
+@needs_karma
+def test_a_trimmed_clips_own_imu_is_put_on_its_shown_frames_clock(tmp_path: Path, trim_mp4) -> None:  # noqa: ANN001
+    """karma.mp4 trimmed at 4 s without re-encoding (every track's edit list shows 6 s from 4 s): the frames read
+    are the untrimmed file's from 4 s on, while telemetry-parser still times the samples from the track's media
+    start. They were fused 4 s off (the offset search, +-0.5 s, put its best at -0.274 s, correlation 0.25, and
+    the residual rotation at 161 deg). Shifted by the edit lists, the gyro's speed matches the shown frames' at
+    the offset the untrimmed file gives (0.037 s over the whole clip, 0.028 s over the same 6 s of it); the
+    rotation is not checked: the 6 s mostly pan about one axis (20-22 deg on both files)."""
+    trimmed = tmp_path / "karma-trimmed.mp4"
+    trimmed.write_bytes(KARMA.read_bytes())
+    trim_mp4(trimmed, 4.0, 6.0)
+    full, trim = read_telemetry_imu(KARMA), read_telemetry_imu(trimmed)
+    assert trim.shifted_s == pytest.approx(-4.0) and full.shifted_s == 0.0
+    assert np.allclose(trim.recording.t_s, full.recording.t_s - 4.0)
+    out = tmp_path / "out"
+    assert main(["analyze", str(trimmed), "--imu", f"telemetry:{trimmed}", "--out", str(out), "--no-progress"]) == 0
+    info = json.loads((out / "imu.json").read_text())
+    assert info["telemetry"]["shifted_s"] == pytest.approx(-4.0)
+    ext = info["extrinsics_estimate"]
+    assert abs(ext["time_offset_s"] - 0.033) < 0.015, ext

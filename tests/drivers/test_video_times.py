@@ -6,7 +6,6 @@ frame at its true time)."""
 from __future__ import annotations
 
 import json
-import struct
 from fractions import Fraction
 from pathlib import Path
 
@@ -17,7 +16,8 @@ import pytest
 av = pytest.importorskip("av")  # a test dependency (pyproject [test])
 
 from walkmon.commands.cli import main  # noqa: E402
-from walkmon.drivers.video_file import VideoFile, edited_duration_s  # noqa: E402
+from walkmon.drivers.mp4_edits import edited_duration_s  # noqa: E402
+from walkmon.drivers.video_file import VideoFile  # noqa: E402
 from walkmon.errors import InvalidInputError  # noqa: E402
 
 
@@ -165,29 +165,9 @@ def test_a_time_lapse_below_one_frame_a_second_keeps_its_times(tmp_path: Path) -
         assert video.times_guessed == 0
 
 
-def trim_by_edit_list(path: Path, start_s: float, shown_s: float, boxes) -> None:  # noqa: ANN001
-    """Trim an mp4 as a phone or ``ffmpeg -ss START -t SHOWN -c copy`` does, without re-encoding: its video
-    track's edit list ('elst', written in place over the one-entry list FFmpeg's muxer writes) shows ``shown_s``
-    from ``start_s`` of its media; every sample stays in the file. Movie and media timescales are 1000 here."""
-    data = bytearray(path.read_bytes())
-
-    def child(span: tuple[int, int], kind: bytes) -> tuple[int, int]:
-        (found,) = [(a, b) for k, a, b in boxes(data, *span) if k == kind]
-        return found
-
-    moov = child((0, len(data)), b"moov")
-    trak = child(moov, b"trak")
-    movie_scale = int.from_bytes(data[child(moov, b"mvhd")[0] + 12 : child(moov, b"mvhd")[0] + 16], "big")
-    mdhd = child(child(trak, b"mdia"), b"mdhd")[0]
-    media_scale = int.from_bytes(data[mdhd + 12 : mdhd + 16], "big")  # version 0 boxes (FFmpeg's, this short)
-    elst = child(child(trak, b"edts"), b"elst")
-    assert data[elst[0]] == 0 and int.from_bytes(data[elst[0] + 4 : elst[0] + 8], "big") == 1  # one entry
-    data[elst[0] + 8 : elst[0] + 20] = struct.pack(">IiI", round(shown_s * movie_scale),
-                                                   round(start_s * media_scale), 0x10000)
-    path.write_bytes(bytes(data))
-
-
-def test_a_clip_trimmed_by_its_edit_list_is_read_not_refused(tmp_path: Path, mp4_boxes) -> None:  # noqa: ANN001
+def test_a_clip_trimmed_by_its_edit_list_is_read_not_refused(
+    tmp_path: Path, mp4_boxes, trim_mp4  # noqa: ANN001
+) -> None:
     """A 3 s clip trimmed to 1.0-2.5 s without re-encoding: FFmpeg decodes the 45 frames shown, the container
     lists 90, and the reader refused it as damaged ("decoding failed at frame 45 of 90"). It reads the shown
     frames, in order, timed from 0; a trimmed clip damaged mid-file is still refused."""
@@ -195,7 +175,7 @@ def test_a_clip_trimmed_by_its_edit_list_is_read_not_refused(tmp_path: Path, mp4
     frames = [rng.integers(0, 255, (48, 64, 3), dtype=np.uint8) for _ in range(90)]
     write_video(tmp_path / "clip.mp4", frames, [k / 30 for k in range(90)])
     assert edited_duration_s(tmp_path / "clip.mp4") == pytest.approx(3.0, abs=0.002)
-    trim_by_edit_list(tmp_path / "clip.mp4", 1.0, 1.5, mp4_boxes)
+    trim_mp4(tmp_path / "clip.mp4", 1.0, 1.5)
     assert edited_duration_s(tmp_path / "clip.mp4") == pytest.approx(1.5)
     with VideoFile(tmp_path / "clip.mp4") as video:
         assert video.frame_count == 45
@@ -249,3 +229,15 @@ def test_the_cadence_of_a_variable_frame_rate_walk_is_the_true_one(walk_vfr: Pat
     with (out / "angles.csv").open() as fh:
         t = np.array([float(line.split(",")[0]) for line in fh.readlines()[1:]])
     assert t[-1] == pytest.approx(16.0 + 4.0 - 1 / 15, abs=0.07)  # the walk's length, not frames / mean rate
+
+
+def test_an_edit_list_with_a_delay_maps_media_times_onto_the_movie() -> None:
+    """An empty edit (media time -1) delays a track: 0.5 s of nothing, then 1.5 s of its media from 2.0 s. Media
+    time 2.0 s is shown at movie time 0.5 s, so media times move by -1.5 s; 1.5 s of media are shown."""
+    from walkmon.drivers.mp4_edits import TrackEdits
+
+    tr = TrackEdits(b"meta", b"gpmd", 1000, 90000, ((500, -1), (1500, 180000)))
+    assert tr.shown_s == pytest.approx(1.5)
+    assert tr.media_to_movie_s == pytest.approx(-1.5)
+    untrimmed = TrackEdits(b"vide", b"avc1", 1000, 90000, ())
+    assert untrimmed.shown_s is None and untrimmed.media_to_movie_s == 0.0
