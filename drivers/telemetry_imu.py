@@ -39,9 +39,10 @@ The clock: the timestamps are the telemetry track's, which starts with the video
 frame or two on GoPro). telemetry-parser times every sample from its track's media start and applies no edit
 list, so in a clip trimmed without re-encoding (its tracks' edit lists show them from the cut on) the samples
 were off the frames by the trim (4 s on karma.mp4 trimmed at 4 s: the offset search, +-0.5 s, found no
-agreement and fused samples from 4 s earlier): they are moved onto the shown frames' clock by the tracks' edit
-lists (:func:`walkmon.drivers.mp4_edits.telemetry_shift_s`; ``shifted_s`` in imu.json). ``walkmon analyze``
-estimates the remaining offset from gyro vs visual rates
+agreement and fused samples from 4 s earlier): they are put on the shown frames' clock by the tracks' edit
+lists, and those the edits cut away are dropped (:func:`walkmon.drivers.mp4_edits.telemetry_times_s`;
+``shifted_s`` in imu.json). A camera that writes its IMU outside a track (after the media) is not moved.
+``walkmon analyze`` estimates the remaining offset from gyro vs visual rates
 (:func:`walkmon.imu.extrinsics.estimate_extrinsics`) unless ``--imu-offset-s`` is given.
 
 Gravity: newer GoPros (HERO8+) also write a ``GRAV`` stream (the camera's own gravity estimate);
@@ -61,7 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from walkmon.drivers.imu_types import ImuBatch, ImuSample
-from walkmon.drivers.mp4_edits import telemetry_shift_s
+from walkmon.drivers.mp4_edits import telemetry_times_s
 from walkmon.errors import (
     ConfigError,
     InvalidInputError,
@@ -93,7 +94,7 @@ class TelemetryImuFile:
     #: the file's display rotation (clockwise), which its frames come turned by and the samples' axes with them
     axes_turned_deg: int = 0
     #: added to telemetry-parser's times to put the samples on the shown frames' clock (a trimmed clip's edit
-    #: lists; 0 for an untrimmed one)
+    #: lists; 0 for an untrimmed one; the median over the samples kept when several edits show parts)
     shifted_s: float = 0.0
 
     def to_dict(self) -> dict[str, object]:
@@ -171,10 +172,16 @@ def read_telemetry_imu(path: str | Path) -> TelemetryImuFile:
     recording = recording_from_normalized(np.array(t_g) / 1e3, np.array(g, dtype=float), np.array(t_a) / 1e3,
                                           np.array(a, dtype=float), source=f"{path}: {name}")
     tg = recording.t_s
-    shift = telemetry_shift_s(path)
-    if shift:
-        # a clip trimmed by its edit lists: the samples onto the shown frames' clock (module docstring)
-        recording = type(recording)(recording.t_s + shift, recording.gyroscope_rad_s, recording.accelerometer_m_s2)
+    shown = telemetry_times_s(path, recording.t_s)
+    shift = float(np.nanmedian(shown - recording.t_s)) if np.isfinite(shown).any() else 0.0
+    if not np.array_equal(shown, recording.t_s):
+        # a clip trimmed by its edit lists: the samples onto the shown frames' clock, those cut away dropped
+        # (module docstring)
+        keep = np.isfinite(shown)
+        if np.count_nonzero(keep) < _MIN_SAMPLES:
+            msg = f"{path}: the clip's edit lists show {np.count_nonzero(keep)} of its {name} telemetry samples"
+            raise InvalidInputError(msg)
+        recording = type(recording)(shown[keep], recording.gyroscope_rad_s[keep], recording.accelerometer_m_s2[keep])
     quarter = _display_quarter_turns(path)
     if quarter:
         # the file is shown turned (a portrait video): OpenCV turns its frames, so the camera axes the angles are

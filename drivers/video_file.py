@@ -18,7 +18,7 @@ IMU's clock), and the last frame's time cannot be checked against a later one.
 A file that decodes to fewer frames than its container lists is damaged and refused, unless an MP4/MOV edit
 list says so: a clip trimmed without re-encoding (a phone's trim, ``ffmpeg -ss ... -c copy``) keeps all the
 samples from the keyframe before its cut and shows only the edited part, which is what FFmpeg decodes. The
-frames expected are then the edits' duration (:mod:`walkmon.drivers.mp4_edits`) at the container's rate.
+frames expected are then the samples the edits show (:func:`walkmon.drivers.mp4_edits.shown_video_frames`).
 ``decode_threads`` limits FFmpeg's decoder threads (1 for single-core benchmarks;
 0 lets FFmpeg choose).
 """
@@ -36,7 +36,7 @@ from types import TracebackType
 import numpy as np
 from numpy.typing import NDArray
 
-from walkmon.drivers.mp4_edits import edited_duration_s
+from walkmon.drivers.mp4_edits import shown_video_frames
 from walkmon.errors import InvalidInputError, SourceError
 
 __all__ = ["DEFAULT_FPS", "VideoFile"]
@@ -90,10 +90,10 @@ class VideoFile:
         self.height_px = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
         #: Frame count from the container header (may be 0 or approximate for some formats).
         self.frame_count = max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
-        edited = edited_duration_s(self.path)
-        if edited is not None and self.frame_count:
+        shown = shown_video_frames(self.path, fps)
+        if shown is not None and self.frame_count:
             # an edit list shows part of the samples (a trim without re-encoding): those frames are the video
-            self.frame_count = min(self.frame_count, max(1, round(edited * fps)))
+            self.frame_count = min(self.frame_count, shown)
         #: The file's display rotation, degrees clockwise (a phone's portrait video: 90), which OpenCV applies to
         #: the frames (and to ``width_px``/``height_px``): a calibration made on the unturned frames is turned to
         #: fit (:func:`walkmon.camera.model.camera_for_frames`). 0 when the file gives none.

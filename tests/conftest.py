@@ -94,16 +94,16 @@ def set_display_rotation():  # noqa: ANN201
     return write_display_rotation
 
 
-def write_trim(path: Path, start_s: float, shown_s: float) -> None:
-    """Trim an mp4 as a phone or ``ffmpeg -ss START -t SHOWN -c copy`` does, without re-encoding: every track gets
-    a one-entry edit list ('elst' in 'edts': duration in the movie's timescale, media time in the track's) that
-    shows ``shown_s`` of its media from ``start_s``; every sample stays in the file. A track's one-entry list is
-    written over; a track without one gets an 'edts' after its 'tkhd', the 'trak' and 'moov' sizes grown to fit
-    (the 'moov' must follow the media data, as FFmpeg's and GoPro's do, so no chunk offset moves)."""
+def write_edits(path: Path, edits: list[tuple[float | None, float]]) -> None:
+    """Give every track of an mp4 the edit list ``edits``, as a phone's trim or ``ffmpeg -ss START -t SHOWN -c
+    copy`` does without re-encoding: (media start s, shown s) per edit, start None for an empty edit (a delay);
+    every sample stays in the file. Each track's 'edts' is replaced by a new one after its 'tkhd' (durations in
+    the movie's timescale, media times in the track's, rate 1), the 'trak' and 'moov' sizes changed to fit (the
+    'moov' must follow the media data, as FFmpeg's and GoPro's do, so no chunk offset moves; or the file be
+    fragmented)."""
     data = bytearray(path.read_bytes())
     top = _boxes(data, 0, len(data))
     (moov,) = [(a, b) for kind, a, b in top if kind == b"moov"]
-    assert [k for k, _, _ in top].index(b"moov") > [k for k, _, _ in top].index(b"mdat"), "moov before mdat"
 
     def child(span: tuple[int, int], kind: bytes) -> tuple[int, int]:
         (found,) = [(a, b) for k, a, b in _boxes(data, *span) if k == kind]
@@ -113,20 +113,30 @@ def write_trim(path: Path, start_s: float, shown_s: float) -> None:
         assert data[box[0]] == 0
         return int.from_bytes(data[box[0] + 12 : box[0] + 16], "big")
 
+    # a fragmented file's fragments address their data from their own 'moof' (FFmpeg's default_base_moof)
+    fragmented = any(k == b"mvex" for k, _, _ in _boxes(data, *moov))
+    assert fragmented or [k for k, _, _ in top].index(b"moov") > [k for k, _, _ in top].index(b"mdat")
+
+    def grow(heads: list[int], by: int) -> None:  # 32-bit box sizes
+        for head in heads:
+            data[head : head + 4] = struct.pack(">I", int.from_bytes(data[head : head + 4], "big") + by)
+
     movie = scale(child(moov, b"mvhd"))
     for a, b in reversed([(a, b) for kind, a, b in _boxes(data, *moov) if kind == b"trak"]):
         media = scale(child(child((a, b), b"mdia"), b"mdhd"))
-        entry = struct.pack(">Ii", round(shown_s * movie), round(start_s * media)) + struct.pack(">I", 0x10000)
-        if any(k == b"edts" for k, _, _ in _boxes(data, a, b)):
-            elst = child(child((a, b), b"edts"), b"elst")
-            assert data[elst[0]] == 0 and int.from_bytes(data[elst[0] + 4 : elst[0] + 8], "big") == 1
-            data[elst[0] + 8 : elst[0] + 20] = entry
-            continue
-        edts = struct.pack(">I4s", 36, b"edts") + struct.pack(">I4sII", 28, b"elst", 0, 1) + entry
-        data[child((a, b), b"tkhd")[1] : child((a, b), b"tkhd")[1]] = edts
-        for head in (a - 8, moov[0] - 8):  # 'trak' and 'moov' headers (32-bit sizes)
-            data[head : head + 4] = struct.pack(">I", int.from_bytes(data[head : head + 4], "big") + len(edts))
-        moov = (moov[0], moov[1] + len(edts))
+        entries = b"".join(struct.pack(">Ii", round(shown * movie), -1 if start is None else round(start * media))
+                           + struct.pack(">I", 0x10000) for start, shown in edits)
+        elst = struct.pack(">I4sII", 16 + len(entries), b"elst", 0, len(edits)) + entries
+        edts = struct.pack(">I4s", 8 + len(elst), b"edts") + elst
+        old = [(x, y) for k, x, y in _boxes(data, a, b) if k == b"edts"]
+        if old:
+            x, y = old[0]
+            del data[x - 8 : y]
+            grow([a - 8, moov[0] - 8], -(y - x + 8))
+            b -= y - x + 8
+        at = child((a, b), b"tkhd")[1]
+        data[at:at] = edts
+        grow([a - 8, moov[0] - 8], len(edts))
     path.write_bytes(bytes(data))
 
 
@@ -137,9 +147,9 @@ def mp4_boxes():  # noqa: ANN201
 
 
 @pytest.fixture(scope="session")
-def trim_mp4():  # noqa: ANN201
-    """:func:`write_trim` for tests (trim an mp4 by its edit lists)."""
-    return write_trim
+def edit_mp4():  # noqa: ANN201
+    """:func:`write_edits` for tests (trim an mp4 by its edit lists)."""
+    return write_edits
 
 
 class SimulatedVideos:

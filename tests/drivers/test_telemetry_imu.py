@@ -253,7 +253,7 @@ def test_a_turned_video_turns_its_own_imus_axes_with_its_frames(
 
 
 @needs_karma
-def test_a_trimmed_clips_own_imu_is_put_on_its_shown_frames_clock(tmp_path: Path, trim_mp4) -> None:  # noqa: ANN001
+def test_a_trimmed_clips_own_imu_is_put_on_its_shown_frames_clock(tmp_path: Path, edit_mp4) -> None:  # noqa: ANN001
     """karma.mp4 trimmed at 4 s without re-encoding (every track's edit list shows 6 s from 4 s): the frames read
     are the untrimmed file's from 4 s on, while telemetry-parser still times the samples from the track's media
     start. They were fused 4 s off (the offset search, +-0.5 s, put its best at -0.274 s, correlation 0.25, and
@@ -262,13 +262,38 @@ def test_a_trimmed_clips_own_imu_is_put_on_its_shown_frames_clock(tmp_path: Path
     rotation is not checked: the 6 s mostly pan about one axis (20-22 deg on both files)."""
     trimmed = tmp_path / "karma-trimmed.mp4"
     trimmed.write_bytes(KARMA.read_bytes())
-    trim_mp4(trimmed, 4.0, 6.0)
+    edit_mp4(trimmed, [(4.0, 6.0)])
     full, trim = read_telemetry_imu(KARMA), read_telemetry_imu(trimmed)
     assert trim.shifted_s == pytest.approx(-4.0) and full.shifted_s == 0.0
-    assert np.allclose(trim.recording.t_s, full.recording.t_s - 4.0)
+    shown = (full.recording.t_s >= 4.0) & (full.recording.t_s < 10.0)  # the samples the edit shows
+    assert np.allclose(trim.recording.t_s, full.recording.t_s[shown] - 4.0)
+    assert np.array_equal(trim.recording.gyroscope_rad_s, full.recording.gyroscope_rad_s[shown])
     out = tmp_path / "out"
     assert main(["analyze", str(trimmed), "--imu", f"telemetry:{trimmed}", "--out", str(out), "--no-progress"]) == 0
     info = json.loads((out / "imu.json").read_text())
     assert info["telemetry"]["shifted_s"] == pytest.approx(-4.0)
     ext = info["extrinsics_estimate"]
     assert abs(ext["time_offset_s"] - 0.033) < 0.015, ext
+
+
+@needs_karma
+def test_a_clip_cut_twice_keeps_its_own_imu_with_each_part(tmp_path: Path, edit_mp4) -> None:  # noqa: ANN001
+    """Edits 0-3 s and 6-9 s on every track (review: only the first edit was followed, the second part's samples
+    3 s off): the samples of 0-3 s stay, those of 6-9 s come at 3-6 s, the rest are cut away; and the frames at
+    3-6 s are the untrimmed file's from 6 s."""
+    from walkmon.drivers.video_file import VideoFile
+
+    cut = tmp_path / "karma-cut.mp4"
+    cut.write_bytes(KARMA.read_bytes())
+    edit_mp4(cut, [(0.0, 3.0), (6.0, 3.0)])
+    full, got = read_telemetry_imu(KARMA).recording, read_telemetry_imu(cut).recording
+    t = full.t_s
+    first, second = (t >= 0.0) & (t < 3.0), (t >= 6.0) & (t < 9.0)
+    assert np.allclose(got.t_s, np.r_[t[first], t[second] - 3.0])
+    assert np.array_equal(got.gyroscope_rad_s, np.r_[full.gyroscope_rad_s[first], full.gyroscope_rad_s[second]])
+    with VideoFile(KARMA) as video:
+        whole = [(ts, f) for ts, f in video if 5.8 < ts < 6.4]
+    with VideoFile(cut) as video:
+        t_part, f_part = next((ts, f) for ts, f in video if ts >= 3.0 - 0.01)
+    t_whole = min(whole, key=lambda item: float(np.abs(item[1].astype(int) - f_part.astype(int)).mean()))[0]
+    assert t_part == pytest.approx(3.0, abs=0.02) and t_whole == pytest.approx(6.0, abs=0.02)
