@@ -129,6 +129,20 @@ def test_bout_rules_and_cadence_over_a_pause(pause_s: float) -> None:
     assert cadence_from_steps(steps[:20]) == pytest.approx(2040.0 / 18.0 if pause_s < 2.0 else 120.0)
 
 
+@pytest.mark.parametrize(("gap_s", "kept"), [(2.0, True), (2.8, False)])
+def test_a_lone_step_after_a_stop_is_in_the_bout_only_within_a_stride(gap_s: float, kept: bool) -> None:
+    """Mobilise-D assembles bouts from strides (a contact to the next but one, at most 3 s): a lone step 2.8 s
+    after a bout's last (a shuffle or weight shift after stopping; MS/001's course, 2.8 s after the last of an
+    INDIP bout) starts or ends no stride (3.3 s from the step two before), so the bout ends at the last step
+    before the stop; 2.0 s after, the stride is 2.5 s and the step belongs to it. The same at the start. Until
+    2026-11-27 the step rule (breaks < 3 s join) took both into the bout."""
+    walk = 10.0 + np.arange(10) * 0.5
+    (bout,) = bouts_from_steps(np.r_[walk, walk[-1] + gap_s])
+    assert bout.end_s == pytest.approx(walk[-1] + gap_s if kept else walk[-1])
+    (bout,) = bouts_from_steps(np.r_[walk[0] - gap_s, walk])
+    assert bout.start_s == pytest.approx(walk[0] - gap_s if kept else walk[0])
+
+
 def test_cadence_mends_missed_and_extra_steps() -> None:
     """A heel strike lost in a turn (an interval twice its neighbours, even two in a row) or a double peak
     (two short intervals summing to one) must not move the cadence off the true steps' cadence."""

@@ -28,7 +28,10 @@ Processing (:func:`segment`):
    joins the bouts around it); a bout needs ``min_steps`` = 4 steps (two strides). A bout runs from its first
    to its last step; leading/trailing steps weaker than ``weak_step_fraction`` x the bout's median step amplitude
    (a weight shift before the first step, sway after the last) and a first/last step interval shorter than
-   0.6 x the bout's median are gait initiation/termination, not steps, and are dropped.
+   0.6 x the bout's median are gait initiation/termination, not steps, and are dropped. From an IMU (whose
+   events are steps), so is a first or last step that starts or ends no stride of at most 3 s
+   (:func:`_stride_edges`: Mobilise-D assembles bouts from strides; a lone step 2.8 s after a bout's last
+   joined it by the step rule, and MS/001's course ran 2.8 s past an INDIP bout's end on one).
    From camera angles only, the ends of each bout are searched again (:func:`_extend_edges`) for the steps a
    posture change at the same time hides from the running-median pitch: the pitch about its mean over one step
    period, maxima in the bout's rhythm, strong enough, where the trunk is not still. Known weakness: bending
@@ -780,10 +783,12 @@ def bouts_from_steps(
     for g, a in zip(groups, amps, strict=True):
         g = _trim_weak_edges(g, a, settings.weak_step_fraction)
         g = _trim_edges(g)
+        mend = sig is None or sig.kind != "angles"
+        if mend:  # events that are steps (a camera's pitch may repeat per stride)
+            g = _stride_edges(g, settings.stride_s[1])
         if g.size < settings.min_steps:
             continue
         g = _extend_edges(g, sig, settings, still, handled)
-        mend = sig is None or sig.kind != "angles"
         if mend and float(np.median(np.diff(g))) > 0.5 * settings.stride_s[1]:
             # trunk acceleration's events are steps (a stride-long lag is halved, see _detect): events so far
             # apart that two make no stride (longer than stride_s, Mobilise-D's 3 s) are another rhythm (a phone
@@ -977,6 +982,19 @@ def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, 
 def _still_at(still: NDArray[np.bool_], t_s: NDArray[np.float64], times: NDArray[np.float64]) -> NDArray[np.bool_]:
     """:func:`_still_samples` (``still`` on the grid ``t_s``) at arbitrary times (the sample at or after each)."""
     return still[np.clip(np.searchsorted(t_s, times), 0, len(still) - 1)]
+
+
+def _stride_edges(g: NDArray[np.float64], longest_s: float) -> NDArray[np.float64]:
+    """Drop a first or last step that ends or starts no stride: Mobilise-D assembles walking bouts from strides
+    (a contact to the next of the same foot, two steps on) of at most ``longest_s``, and a bout runs from its first
+    stride's start to its last stride's end, so a lone step more than ``longest_s`` after the step two before it
+    (a shuffle or a weight shift after a pause of 2-3 s) is no part of the bout, though the step rule's break
+    (``max_break_s`` between steps) would join it."""
+    while g.size >= 3 and g[-1] - g[-3] > longest_s:
+        g = g[:-1]
+    while g.size >= 3 and g[2] - g[0] > longest_s:
+        g = g[1:]
+    return g
 
 
 def _trim_edges(g: NDArray[np.float64]) -> NDArray[np.float64]:
