@@ -394,6 +394,53 @@ def test_a_tilted_pause_after_a_turn_is_no_reference(seed: int, roll_deg: float)
     assert all(abs(r.posture_deg[2]) < 3.0 for r in late)
 
 
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_video_drift_across_a_pick_up_labels_no_bend(seed: int) -> None:
+    """Two U-turns (gravity's direction learnt, a pause re-references), picking something up, standing, a normal
+    walk (simulator truth), with 10 deg of pitch a video lost across the pick-up added from it on (the chest drops
+    while it pitches, which the camera can take for a rotation: 8 deg in an unkind session). The stance after it
+    reads too far off to re-reference (3 deg), so the walk after it read bent forward (the held-out live replay:
+    2 pathology hops on true normal walking). Each stretch of tilting far and fast since the reference now allows
+    4 deg of drift (the offline bound for a turn): no bend label; the walk before the pick-up keeps its label."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("mount:-12:-1,stand:3,normal:6,turn:180,normal:6,turn:180,normal:6,pause:3,pickup:4,stand:3,"
+                      "normal:10", seed=seed)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(seed).normal(0, 0.02, (t.size, 3))
+    pick = next(p for p in model.pieces if p.activity == "unknown")
+    a[:, 0] -= 10.0 * np.clip((t - pick.start_s) / (pick.end_s - pick.start_s), 0.0, 1.0)
+    out = run_stage(t, a)
+    walks = [p for p in model.pieces if p.label == "normal"]
+    before = [r.label for r in out if r.walking and walks[-2].start_s + 4.0 <= r.t_s <= walks[-2].end_s]
+    last = [r.label for r in out if r.walking and r.t_s >= walks[-1].start_s + 4.0]
+    assert before and all(lab == "normal" for lab in before), before
+    assert last and not any(lab in ("bend", "left_shoulder_down", "right_foot_drag") for lab in last), last
+
+
+def test_no_posture_alert_before_an_upright_reference() -> None:
+    """A walk that starts mid-walk with the left shoulder 6 deg down, then a normal walk (simulator truth): the
+    first frame is the reference, assumed upright, and the normal walk read 6 deg the other way, raising "right
+    shoulder down" (an unkind session's live replay; here at 17 s, the left shoulder 6.4 deg down at the start).
+    Before a still stance no posture alert is raised; after one, a shoulder held down raises it as before."""
+    from walkmon.consts import angles_deg_from_rotation
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("mount:-5:0,left_shoulder_down:10,normal:20", seed=1, stand_s=0.0)  # starts mid-walk
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    rot = model.rotation(t)
+    a = angles_deg_from_rotation(rot[0].T @ rot)  # relative to the first frame, as a camera measures
+    a += np.random.default_rng(4).normal(0, 0.02, a.shape)
+    out, raised = run_with_alerts(t, a, LiveIndicatorStage())
+    assert not any(r.calibrated for r in out)
+    assert not [e for e in raised if e.kind in ("shoulder_down", "lean_forward")], raised
+    model = GaitModel("mount:-5:0,stand:3,normal:6,left_shoulder_down:14", seed=4)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(4).normal(0, 0.02, (t.size, 3))
+    _, raised = run_with_alerts(t, a, LiveIndicatorStage())
+    assert [e.kind for e in raised] == ["shoulder_down"], raised
+
+
 @pytest.mark.parametrize(("turn_deg", "seed"), [(-45, 1), (30, 2), (45, 2)])
 def test_a_tilted_camera_after_a_small_turn_raises_no_alert(turn_deg: int, seed: int) -> None:
     """A camera 12 deg down on the chest, a normal walk, a turn of 30-45 deg (a corner: too small to learn

@@ -298,6 +298,8 @@ _RANGES: dict[tuple[str, str], tuple[float, float]] = {
     ("indicators", "walking_window_s"): (0.1, 120.0),
     ("indicators", "calibration_s"): (0.1, 120.0),
     ("indicators", "max_gap_s"): (0.05, 120.0),
+    ("indicators", "uncalibrated_doubt_deg"): (0.0, 90.0),
+    ("indicators", "tilt_drift_deg"): (0.0, 90.0),
     ("sinks", "hook_timeout_s"): (0.1, 600.0),
     ("session", "retention_days"): (0.0, 36500.0),
     ("pipeline", "queue_size"): (1, 1000),
