@@ -36,7 +36,7 @@ _log = logging.getLogger(__name__)
 MAX_MOOV_BYTES = 64 * 1024 * 1024
 #: More edits than this in one track, or more samples than this in the video track, is no trimmed clip.
 MAX_EDITS = 10_000
-MAX_SAMPLES = 20_000_000
+MAX_SAMPLES = 5_000_000  # 23 h at 60 fps; the tables then take ~200 MB for the count
 
 #: Sample formats of the timed-metadata tracks action cameras write their IMU to: GoPro GPMF, Google's camera
 #: motion metadata (also Insta360 and others), DJI, Sony.
@@ -220,9 +220,8 @@ def _shown_samples(data: bytes, stbl: tuple[int, int] | None, edits: tuple[tuple
     composition = decode
     if ctts is not None:
         c_counts, offsets = _table(data, ctts, signed=True)  # as FFmpeg reads them, whatever the version
-        shift = np.repeat(offsets, c_counts)
-        if shift.size == decode.size:
-            composition = decode + shift
+        if int(c_counts.sum()) == decode.size:  # else a table that does not describe these samples: left out
+            composition = decode + np.repeat(offsets, c_counts)
     shown = np.zeros(composition.shape, dtype=bool)
     for d, m, _ in edits:
         if m != -1:
@@ -268,7 +267,7 @@ def read_track_edits(path: str | Path) -> list[TrackEdits]:
     try:
         st = os.stat(path)
         return list(_cached_edits(str(path), st.st_mtime_ns, st.st_size))
-    except (OSError, _Malformed, IndexError, ValueError):
+    except (OSError, _Malformed, IndexError, ValueError, MemoryError):
         return []
 
 
@@ -293,7 +292,7 @@ def shown_video_frames(path: str | Path, fps: float) -> int | None:
     if video is None or not video.edits:
         return None
     if video.shown_samples is not None:
-        return video.shown_samples
+        return video.shown_samples or None  # none shown: FFmpeg decodes none either, the count says nothing
     shown = video.shown_s
     return max(1, round(shown * fps)) if shown else None
 

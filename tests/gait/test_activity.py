@@ -142,6 +142,15 @@ def test_a_lone_step_after_a_stop_is_in_the_bout_only_within_a_stride(gap_s: flo
     (bout,) = bouts_from_steps(np.r_[walk[0] - gap_s, walk])
     assert bout.start_s == pytest.approx(walk[0] - gap_s if kept else walk[0])
 
+def test_a_closing_half_step_before_a_lone_step_is_still_gait_termination() -> None:
+    """A closing half step 0.2 s after the last step is gait termination (dropped); a lone step 2.9 s after it
+    starts or ends no stride (3.1 s from the step two before) and is dropped too, and then the half step must be
+    judged again (review: it stayed, and the cadence read 125.7 for 120 steps/min)."""
+    walk = 10.0 + np.arange(10) * 0.5
+    (bout,) = bouts_from_steps(np.r_[walk, walk[-1] + 0.2, walk[-1] + 0.2 + 2.9])
+    assert bout.end_s == pytest.approx(walk[-1])
+    assert bout.cadence_spm == pytest.approx(120.0)
+
 
 def test_cadence_mends_missed_and_extra_steps() -> None:
     """A heel strike lost in a turn (an interval twice its neighbours, even two in a row) or a double peak

@@ -423,7 +423,8 @@ def test_no_posture_alert_before_an_upright_reference() -> None:
     first frame is the reference, assumed upright, and the normal walk read 6 deg the other way, raising "right
     shoulder down" (an unkind session's live replay; here at 17 s, the left shoulder 6.4 deg down at the start).
     Before a still stance no posture alert is raised; after one, a shoulder held down raises it as before."""
-    from walkmon.consts import angles_deg_from_rotation
+    from walkmon.consts import angles_deg_from_rotation, gravity_angles_deg_from_gravity
+    from walkmon.live.alerts import AlertStage
     from walkmon.simulate.gait import GaitModel
 
     model = GaitModel("mount:-5:0,left_shoulder_down:10,normal:20", seed=1, stand_s=0.0)  # starts mid-walk
@@ -434,6 +435,19 @@ def test_no_posture_alert_before_an_upright_reference() -> None:
     out, raised = run_with_alerts(t, a, LiveIndicatorStage())
     assert not any(r.calibrated for r in out)
     assert not [e for e in raised if e.kind in ("shoulder_down", "lean_forward")], raised
+    # labels are still given against the assumed reference, saying so
+    labelled = [r for r in out if r.label in ("normal", "left_shoulder_down", "bend")]
+    assert labelled and all(any("upright reference assumed" in why for why in r.reasons) for r in labelled)
+    # an IMU's gravity does not tell the trunk's upright pose on the camera either (review): no alert fused
+    stage, alerts = LiveIndicatorStage(), AlertStage()
+    down = np.einsum("nji,j->ni", rot, [0.0, 1.0, 0.0])  # the world's down (+y) in the camera, per frame
+    g = gravity_angles_deg_from_gravity(down)
+    fused = []
+    for ti, ai, gi in zip(t, a, g, strict=True):
+        hop = stage.push(ti, ai, (float(gi[0]), float(gi[1])))
+        if hop is not None:
+            fused += [e for e in alerts.push(hop) if e.state == "raised"]
+    assert stage._gravity_known and not fused, fused
     model = GaitModel("mount:-5:0,stand:3,normal:6,left_shoulder_down:14", seed=4)
     t = np.arange(0, model.duration_s, 1 / FPS)
     a = model.truth_angles_deg(t) + np.random.default_rng(4).normal(0, 0.02, (t.size, 3))

@@ -781,11 +781,15 @@ def bouts_from_steps(
         groups, amps = [g for g, _ in kept], [a for _, a in kept]
     out = []
     for g, a in zip(groups, amps, strict=True):
-        g = _trim_weak_edges(g, a, settings.weak_step_fraction)
-        g = _trim_edges(g)
         mend = sig is None or sig.kind != "angles"
-        if mend:  # events that are steps (a camera's pitch may repeat per stride)
-            g = _stride_edges(g, settings.stride_s[1])
+        g, a = _trim_initiation(g, a, settings)
+        while mend:  # events that are steps (a camera's pitch may repeat per stride)
+            n = g.size
+            keep = np.isin(g, _stride_edges(g, settings.stride_s[1]))
+            # the edge a lone step leaves may be one the other trims take (a closing half step before it)
+            g, a = _trim_initiation(g[keep], a[keep], settings)
+            if g.size == n:
+                break
         if g.size < settings.min_steps:
             continue
         g = _extend_edges(g, sig, settings, still, handled)
@@ -982,6 +986,17 @@ def _handled_samples(sig: TrunkSignals, s: ActivitySettings, turns: tuple[Turn, 
 def _still_at(still: NDArray[np.bool_], t_s: NDArray[np.float64], times: NDArray[np.float64]) -> NDArray[np.bool_]:
     """:func:`_still_samples` (``still`` on the grid ``t_s``) at arbitrary times (the sample at or after each)."""
     return still[np.clip(np.searchsorted(t_s, times), 0, len(still) - 1)]
+
+
+def _trim_initiation(
+    g: NDArray[np.float64], a: NDArray[np.float64], s: ActivitySettings
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A bout's steps ``g`` and amplitudes ``a`` without gait initiation and termination: weak edge steps
+    (:func:`_trim_weak_edges`), then a short first or last interval (:func:`_trim_edges`)."""
+    keep = np.isin(g, _trim_weak_edges(g, a, s.weak_step_fraction))
+    g, a = g[keep], a[keep]
+    keep = np.isin(g, _trim_edges(g))
+    return g[keep], a[keep]
 
 
 def _stride_edges(g: NDArray[np.float64], longest_s: float) -> NDArray[np.float64]:

@@ -96,21 +96,26 @@ class LiveIndicatorSettings:
     #: wearer who starts the monitor seated is still, 22-35 deg from upright, and every walk after it read "bent
     #: forward" (the simulator's unkind sessions that start seated: 11 of 19 false bend hops on normal walking).
     still_tilt_deg: float = 20.0
-    #: Before any still stance (no upright calibration, no IMU) the first frame is the reference, assumed upright:
-    #: the posture the alerts react to may be off by this much (degrees, pitch and roll), so no posture alert is
-    #: raised against it. A walk that starts tilted reads its return to upright as the opposite tilt: an unkind
-    #: session starting mid-walk with the left shoulder 6 deg down raised "right shoulder down 6 deg" on the normal
-    #: walk after it. 20 deg: walks start bent forward by up to 15-20 deg (the simulator's bend walks), and a
-    #: stooped wearer by more. Labels are not affected (they say their reference is assumed).
+    #: Before any still stance (no upright calibration) the first frame is the reference, assumed upright (with an
+    #: IMU too: gravity's direction is known, the trunk's upright pose on the camera is not): the posture the alerts
+    #: react to may be off by this much (degrees, pitch and roll), so no posture alert is raised against it. A walk
+    #: that starts tilted reads its return to upright as the opposite tilt: an unkind session starting mid-walk
+    #: with the left shoulder 6 deg down raised "right shoulder down 6 deg" on the normal walk after it. 20 deg:
+    #: walks start bent forward by up to 15-20 deg (the simulator's bend walks), and a stooped wearer by more.
+    #: Labels are still given against it, as the offline analysis gives them without a standing phase, with the
+    #: reason that the reference is assumed (so a walk that starts with the right shoulder down labels the upright
+    #: walk after it left_shoulder_down, saying so).
     uncalibrated_doubt_deg: float = 20.0
-    #: How far a video's pitch and roll may move across each stretch where the trunk tilts far and fast (sitting
-    #: down, picking something up, handling the camera: the segmentation's handled stretches) since the upright
-    #: reference was taken, degrees (the bound grows with the square root of their number), until a pause
-    #: re-references it: the offline analysis' bound for a turn (:class:`walkmon.gait.session.SessionSettings`
-    #: ``turn_reference_deg``). Turns have their own doubt (their axes', :meth:`LiveIndicatorStage._tilt_doubt_deg`)
-    #: and re-reference at a pause. 0 for angles that do not drift. Without it, 2 pathology hops on true normal
-    #: walking in the live replay of the held-out unkind sessions (a normal walk after picking something up read
-    #: bent 8 deg); counting turns too (the offline bound) withheld 13 / 28 more right labels for no fewer false.
+    #: How far a video's pitch may move across each stretch where the trunk tilts far and fast (the segmentation's
+    #: handled stretches: sitting down and standing up, picking something up, handling the camera; a pick-up is
+    #: two, down and up) since the upright reference was taken, degrees (the bound grows with the square root of
+    #: their number), until a pause re-references it: the offline analysis' bound for a turn
+    #: (:class:`walkmon.gait.session.SessionSettings` ``turn_reference_deg``), on the pitch alone (the chest drops
+    #: while it pitches, and a camera facing a near surface can take the drop for a pitch; a roll has no
+    #: translation to be taken for). Turns have their own doubt (their axes',
+    #: :meth:`LiveIndicatorStage._tilt_doubt_deg`) and re-reference at a pause. 0 for angles that do not drift.
+    #: Without it, 2 pathology hops on true normal walking in the live replay of the held-out unkind sessions (a
+    #: normal walk after picking something up read bent 8 deg).
     tilt_drift_deg: float = 4.0
     #: Uniform resampling rate of the analysis, Hz.
     resample_hz: float = 30.0
@@ -187,9 +192,15 @@ class LiveIndicators:
     calibration: CalibrationEvent | None = None
     extra: dict[str, float] = field(default_factory=dict)
     activity: str = "unknown"
-    #: How far ``posture_deg``'s pitch and roll may be off because gravity's direction is not known well enough
-    #: at this heading (:meth:`LiveIndicatorStage._tilt_doubt_deg`); the alerts take it off before comparing.
+    #: How far ``posture_deg``'s pitch and roll may be off (degrees; the larger of the two below): gravity's
+    #: direction not known well enough at this heading, the video's drift since the reference, or no upright
+    #: reference yet (:meth:`LiveIndicatorStage._posture_doubt_deg`). The alerts take it off before comparing.
     posture_doubt_deg: float = 0.0
+    #: The same, for the pitch alone (NaN: as ``posture_doubt_deg``); a video's drift across sitting down or
+    #: picking something up is a pitch drift.
+    posture_doubt_pitch_deg: float = math.nan
+    #: The same, for the roll alone (NaN: as ``posture_doubt_deg``).
+    posture_doubt_roll_deg: float = math.nan
 
     def to_dict(self) -> dict[str, object]:
         def num(v: float) -> float | None:
@@ -212,6 +223,8 @@ class LiveIndicators:
                 for i, ax in enumerate(AXES)
             },
             "posture_doubt_deg": num(self.posture_doubt_deg),
+            "posture_doubt_pitch_deg": num(self.posture_doubt_pitch_deg),
+            "posture_doubt_roll_deg": num(self.posture_doubt_roll_deg),
             "step_asymmetry": num(self.step_asymmetry),
             "classification": {"label": self.label, "reasons": list(self.reasons)},
             "calibrated": self.calibrated,
@@ -676,7 +689,8 @@ class LiveIndicatorStage:
                 # steps 1.27-1.5 apart on a symmetric one
                 swing, incl = tuple(sw), tuple(inc)  # type: ignore[assignment]
         walking = activity == "walking"
-        label, reasons = "not_walking", (f"activity {activity}: no walking bout reaching the present",)
+        label = "not_walking"
+        reasons: tuple[str, ...] = (f"activity {activity}: no walking bout reaching the present",)
         if walking and span is not None:
             ind = self._classify_span(t, np.asarray(self._a, dtype=float), span)
             label, reasons = ind.classification.label, tuple(ind.classification.reasons)
@@ -695,11 +709,15 @@ class LiveIndicatorStage:
                         incl = tuple(ind.axes[ax].inclination_mean for ax in AXES)  # type: ignore[assignment]
                 elif why is not None:
                     label, reasons = "unclassified", (why,)
+            if not self._calibrated and label in ("normal", *_POSTURE_LABELS):
+                # against the first frame, assumed upright (as the offline analysis without a standing phase)
+                reasons = (*reasons, "upright reference assumed: the first frame (no still stance yet; stand still "
+                                     f"for {s.calibration_s:g} s to calibrate)")
         # the posture the alerts react to, from the reference as it stands after this hop (a rejected one gives
         # no pitch and roll: a wearer who started the monitor seated must not be told to straighten up)
         recent = t >= t_now - s.posture_window_s
         posture = tuple(float(v) for v in self._posture(t, recent)) if recent.any() else nan3
-        posture_doubt = self._posture_doubt_deg(t, recent) if recent.any() else 0.0
+        doubt_pitch, doubt_roll = self._posture_doubt_deg(t, recent) if recent.any() else (0.0, 0.0)
         if self._rejected is not None:
             posture = (math.nan, posture[1], math.nan)
         event = self._pending_events.popleft() if self._pending_events else None
@@ -719,7 +737,9 @@ class LiveIndicatorStage:
             calibrated=self._calibrated,
             calibration=event,
             activity=activity,
-            posture_doubt_deg=float(posture_doubt),
+            posture_doubt_deg=float(max(doubt_pitch, doubt_roll)),
+            posture_doubt_pitch_deg=float(doubt_pitch),
+            posture_doubt_roll_deg=float(doubt_roll),
         )
 
     def _posture(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> NDArray[np.float64]:
@@ -739,15 +759,17 @@ class LiveIndicatorStage:
         out[1] = (out[1] + 180.0) % 360.0 - 180.0  # the heading, shown within +-180
         return out
 
-    def _posture_doubt_deg(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> float:
-        """:meth:`_tilt_doubt_deg` of the ``recent`` samples (the posture the alerts react to), and, before any
-        upright calibration without an IMU, ``uncalibrated_doubt_deg``: the reference is then the first frame,
-        only assumed upright."""
+    def _posture_doubt_deg(self, t: NDArray[np.float64], recent: NDArray[np.bool_]) -> tuple[float, float]:
+        """(pitch, roll) doubt of the posture the alerts react to: :meth:`_tilt_doubt_deg` of the ``recent``
+        samples and, before any upright calibration, ``uncalibrated_doubt_deg``: the reference is then the first
+        frame, only assumed upright (with an IMU too: gravity's direction is known, the trunk's upright pose on it
+        is not)."""
         a, ref = self._level(np.asarray(self._a, dtype=float))
-        doubt = self._tilt_doubt_deg(a, ref, recent)[0]
-        if not self._calibrated and not self._gravity_known:
-            doubt = math.hypot(doubt, self.settings.uncalibrated_doubt_deg)
-        return doubt
+        pitch, roll, _ = self._tilt_doubt_deg(a, ref, recent)
+        if not self._calibrated:
+            pitch = math.hypot(pitch, self.settings.uncalibrated_doubt_deg)
+            roll = math.hypot(roll, self.settings.uncalibrated_doubt_deg)
+        return pitch, roll
 
     def _level(self, a: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Angles ``a`` and the reference in the level frame of gravity's direction once it is known, else as
@@ -811,13 +833,16 @@ class LiveIndicatorStage:
                                         if id(ax) in kept), default=0.0)
 
     def _tilt_doubt_deg(self, a: NDArray[np.float64], ref: NDArray[np.float64], m: NDArray[np.bool_]) -> tuple[
-        float, str
+        float, float, str
     ]:
-        """How far the heading-free tilt of the samples ``m`` may be off because gravity's direction is not known
-        well enough, and why: ``2 sin(dpsi / 2)`` times the direction's possible error, ``dpsi`` the heading turned
+        """How far the heading-free (pitch, roll) of the samples ``m`` may be off, and why. Gravity's direction not
+        known well enough: ``2 sin(dpsi / 2)`` times the direction's possible error, ``dpsi`` the heading turned
         since the reference (an error of the direction shows in the tilt only as the wearer faces away from where
-        the reference was taken). ``a`` and ``ref``: the angles and the reference, in the level frame when the
-        direction is known. 0 with an IMU's gravity.
+        the reference was taken), in pitch and roll alike; and in pitch, the video's drift across each stretch of
+        tilting far and fast since the reference (``tilt_drift_deg``, :meth:`_count_tilts`: the chest drops while
+        it pitches, and a camera facing a near surface can take the drop for a pitch; a roll has no translation
+        to be taken for). ``a`` and ``ref``: the angles and the reference, in the level frame when the direction
+        is known. 0 with an IMU's gravity.
 
         * Learnt from turns: the largest doubt of the turns it rests on (:func:`walkmon.gait.session.
           turn_axis_doubt_deg`; those vertical_from_axes and vertical_with_level kept). The live replay of the
@@ -834,7 +859,7 @@ class LiveIndicatorStage:
         from walkmon.gait.session import DEFAULT_SESSION_SETTINGS  # noqa: PLC0415
 
         if self._gravity_known or not m.any():
-            return 0.0, ""
+            return 0.0, 0.0, ""
         yaw = np.radians(a[m, 1] - float(ref[1]))
         dpsi = abs(math.degrees(math.atan2(float(np.mean(np.sin(yaw))), float(np.mean(np.cos(yaw))))))
         factor = 2.0 * math.sin(math.radians(dpsi) / 2.0)
@@ -851,15 +876,16 @@ class LiveIndicatorStage:
                 f"tilt at this heading")
         # the video's own drift: each turn since the reference was taken may move its pitch and roll (the offline
         # analysis' bound for a stretch reached through n turns, walkmon.gait.session._reference_model)
+        pitch = doubt
         n = self._tilts_since_reference()
         per = self.settings.tilt_drift_deg
         if n and per > 0:
             drift = math.sqrt(n) * per
-            doubt = math.hypot(doubt, drift)
-            why += (f"; and the video's pitch and roll may have moved by up to {per:g} deg each time the trunk tilted "
-                    f"far and fast since the upright reference was taken (sitting down, picking something up: {n}, "
-                    f"{drift:.1f} deg)")
-        return doubt, why
+            pitch = math.hypot(doubt, drift)
+            why += (f"; and the video's pitch may have moved by up to {per:g} deg each time the trunk tilted far and "
+                    f"fast since the upright reference was taken (sitting down, standing up, picking something up: "
+                    f"{n}, {drift:.1f} deg)")
+        return pitch, doubt, why
 
     def _tilts_since_reference(self) -> int:
         """Handled stretches (:meth:`_count_tilts`) since the upright reference was taken (all of them before a
@@ -936,11 +962,12 @@ class LiveIndicatorStage:
         cuts = change_points(t[m], hf[m])  # a posture change inside the span: classify what follows it
         start = cuts[-1] if cuts else span[0]
         ind, _ = span_indicators(t, hf, start, span[1], np.zeros(3), steps, "angles")
-        doubt, why = self._tilt_doubt_deg(a, ref, (t >= start) & (t <= span[1]))
-        if ind.classification.label in _POSTURE_LABELS and doubt > 0:
-            # a posture label that the direction's doubt could change is withheld, as offline
+        pitch, roll, why = self._tilt_doubt_deg(a, ref, (t >= start) & (t <= span[1]))
+        if ind.classification.label in _POSTURE_LABELS and max(pitch, roll) > 0:
+            # a posture label that the doubt could change is withheld, as offline
             # (walkmon.gait.session.label_within_uncertainty with the same corners)
-            unc = ReferenceUncertainty(np.full((t.size, 2), doubt), np.zeros(t.size, dtype=np.int64), (why,))
+            deg = np.tile([pitch, roll], (t.size, 1))
+            unc = ReferenceUncertainty(deg, np.zeros(t.size, dtype=np.int64), (why,))
             ind = ind.with_classification(label_within_uncertainty(
                 ind.classification, ind.to_dict(), [(start, span[1])], t, unc, None))
         if ind.classification.label in _POSTURE_LABELS:

@@ -7,8 +7,10 @@ empty). Each condition
 * ``lean_forward``: posture pitch below ``-lean_forward_deg`` (bent forward);
 * ``shoulder_down``: posture roll beyond ``shoulder_down_deg`` either side (sign tells which shoulder);
 
-  both on what the posture is at least: the measured tilt less ``posture_doubt_deg`` (a camera-only monitor that
-  does not know gravity's direction well enough at the wearer's heading; the value reported is that lower bound);
+  both on what the posture is at least: the measured tilt less its doubt on that axis (``posture_doubt_pitch_deg``
+  / ``posture_doubt_roll_deg``: a camera-only monitor that does not know gravity's direction well enough at the
+  wearer's heading, a video's pitch drift since the reference, or no upright reference yet, before the first still
+  stance; the value reported is that lower bound);
 * ``unsteady_gait``: roll swing above ``unsteady_roll_swing_deg``;
 * ``asymmetric_gait``: step asymmetry above ``asymmetry_ratio``;
 
@@ -117,17 +119,20 @@ class _State:
 def _measures(s: AlertSettings) -> dict[str, tuple[Callable[[LiveIndicators], float], float, float, str]]:
     """condition -> (value from indicators, raise threshold, clear threshold, message template)."""
 
-    def doubt(ind: LiveIndicators) -> float:
-        d = float(getattr(ind, "posture_doubt_deg", 0.0))
+    def doubt(ind: LiveIndicators, axis: str) -> float:
+        d = float(getattr(ind, f"posture_doubt_{axis}_deg", math.nan))
+        if not math.isfinite(d):
+            d = float(getattr(ind, "posture_doubt_deg", 0.0))
         return d if math.isfinite(d) and d > 0 else 0.0
 
-    # what the posture is at least: the measured tilt less its doubt (gravity's direction not known well enough
-    # at this heading, LiveIndicators.posture_doubt_deg), so that a doubtful tilt raises nothing
+    # what the posture is at least: the measured tilt less its doubt on that axis (LiveIndicators.
+    # posture_doubt_pitch_deg / _roll_deg: gravity's direction not known well enough at this heading, the video's
+    # pitch drift since the reference, no upright reference yet), so that a doubtful tilt raises nothing
     def lean(ind: LiveIndicators) -> float:
-        return -ind.posture_deg[0] - doubt(ind)
+        return -ind.posture_deg[0] - doubt(ind, "pitch")
 
     def shoulder(ind: LiveIndicators) -> float:
-        return abs(ind.posture_deg[2]) - doubt(ind)
+        return abs(ind.posture_deg[2]) - doubt(ind, "roll")
 
     return {
         "lean_forward": (lean, s.lean_forward_deg, s.lean_forward_deg - s.lean_forward_hysteresis_deg,
