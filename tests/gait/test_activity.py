@@ -142,6 +142,7 @@ def test_a_lone_step_after_a_stop_is_in_the_bout_only_within_a_stride(gap_s: flo
     (bout,) = bouts_from_steps(np.r_[walk[0] - gap_s, walk])
     assert bout.start_s == pytest.approx(walk[0] - gap_s if kept else walk[0])
 
+
 def test_a_closing_half_step_before_a_lone_step_is_still_gait_termination() -> None:
     """A closing half step 0.2 s after the last step is gait termination (dropped); a lone step 2.9 s after it
     starts or ends no stride (3.1 s from the step two before) and is dropped too, and then the half step must be
@@ -150,6 +151,23 @@ def test_a_closing_half_step_before_a_lone_step_is_still_gait_termination() -> N
     (bout,) = bouts_from_steps(np.r_[walk, walk[-1] + 0.2, walk[-1] + 0.2 + 2.9])
     assert bout.end_s == pytest.approx(walk[-1])
     assert bout.cadence_spm == pytest.approx(120.0)
+
+
+def test_weak_edge_steps_are_trimmed_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Weak leading steps (a weight shift) are dropped against the bout's median step amplitude, once: a second
+    pass against the median of what is left dropped more of a real start (review of the stride-edge loop: a
+    16-step bout started 0.5 s late)."""
+    from walkmon.gait import activity
+    from walkmon.gait.activity import DEFAULT_ACTIVITY_SETTINGS
+
+    t = np.arange(0.0, 30.0, 0.01)
+    sig = signals_from_imu(t, np.tile([0.0, 0.0, 9.81], (t.size, 1)), np.zeros((t.size, 3)))
+    steps = 10.0 + np.arange(16) * 0.5
+    amps = np.r_[np.linspace(0.05, 0.6, 8), np.ones(8)]
+    monkeypatch.setattr(activity, "_step_amplitudes", lambda st, sig, s: amps[: st.size])
+    (bout,) = bouts_from_steps(steps, sig)
+    limit = DEFAULT_ACTIVITY_SETTINGS.weak_step_fraction * float(np.median(amps))
+    assert bout.start_s == pytest.approx(steps[np.argmax(amps >= limit)])
 
 
 def test_cadence_mends_missed_and_extra_steps() -> None:

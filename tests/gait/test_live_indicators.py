@@ -418,6 +418,23 @@ def test_a_video_drift_across_a_pick_up_labels_no_bend(seed: int) -> None:
     assert last and not any(lab in ("bend", "left_shoulder_down", "right_foot_drag") for lab in last), last
 
 
+def test_a_shoulder_down_walk_after_a_pick_up_keeps_its_label() -> None:
+    """The drift a pick-up may leave is a pitch drift: a shoulder-down walk after it (6 deg of pitch drift added,
+    simulator truth) keeps its label (review: the drift's doubt on the roll too withheld every such label)."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("mount:-12:-1,stand:3,normal:6,turn:180,normal:6,turn:180,normal:6,pause:3,pickup:4,stand:3,"
+                      "left_shoulder_down:12", seed=1)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(1).normal(0, 0.02, (t.size, 3))
+    pick = next(p for p in model.pieces if p.activity == "unknown")
+    a[:, 0] -= 6.0 * np.clip((t - pick.start_s) / (pick.end_s - pick.start_s), 0.0, 1.0)
+    out = run_stage(t, a)
+    last = [p for p in model.pieces if p.label == "left_shoulder_down"][-1]
+    labels = [r.label for r in out if r.walking and r.t_s >= last.start_s + 4.0]
+    assert len(labels) >= 5 and labels.count("left_shoulder_down") >= len(labels) - 1, labels
+
+
 def test_no_posture_alert_before_an_upright_reference() -> None:
     """A walk that starts mid-walk with the left shoulder 6 deg down, then a normal walk (simulator truth): the
     first frame is the reference, assumed upright, and the normal walk read 6 deg the other way, raising "right

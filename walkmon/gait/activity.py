@@ -784,12 +784,13 @@ def bouts_from_steps(
         mend = sig is None or sig.kind != "angles"
         g, a = _trim_initiation(g, a, settings)
         while mend:  # events that are steps (a camera's pitch may repeat per stride)
-            n = g.size
-            keep = np.isin(g, _stride_edges(g, settings.stride_s[1]))
-            # the edge a lone step leaves may be one the other trims take (a closing half step before it)
-            g, a = _trim_initiation(g[keep], a[keep], settings)
-            if g.size == n:
+            i0, i1 = _stride_edges(g, settings.stride_s[1])
+            if (i0, i1) == (0, g.size):
                 break
+            # the edge a lone step leaves may be a closing half step the short-interval rule takes
+            g, a = g[i0:i1], a[i0:i1]
+            i0, i1 = _trim_edges(g)
+            g, a = g[i0:i1], a[i0:i1]
         if g.size < settings.min_steps:
             continue
         g = _extend_edges(g, sig, settings, still, handled)
@@ -858,19 +859,19 @@ def _without_handled_edges(
     return g[i0:i1], a[i0:i1]
 
 
-def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: float) -> NDArray[np.float64]:
-    """Drop leading/trailing 'steps' whose amplitude is below ``fraction`` x the bout's median step amplitude:
-    a weight shift before gait initiation or the sway after stopping moves the trunk once or twice at about a
-    step's rhythm but far more weakly than a heel strike."""
+def _trim_weak_edges(g: NDArray[np.float64], a: NDArray[np.float64], fraction: float) -> tuple[int, int]:
+    """The bounds ``(i0, i1)`` of ``g`` without leading/trailing 'steps' whose amplitude ``a`` is below
+    ``fraction`` x the bout's median step amplitude: a weight shift before gait initiation or the sway after
+    stopping moves the trunk once or twice at about a step's rhythm but far more weakly than a heel strike."""
     if g.size < 3 or not np.all(np.isfinite(a)):
-        return g
+        return 0, g.size
     med = float(np.median(a))
     i0, i1 = 0, g.size
     while i1 - i0 >= 3 and a[i0] < fraction * med:
         i0 += 1
     while i1 - i0 >= 3 and a[i1 - 1] < fraction * med:
         i1 -= 1
-    return g[i0:i1]
+    return i0, i1
 
 
 def _extend_edges(
@@ -993,38 +994,41 @@ def _trim_initiation(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """A bout's steps ``g`` and amplitudes ``a`` without gait initiation and termination: weak edge steps
     (:func:`_trim_weak_edges`), then a short first or last interval (:func:`_trim_edges`)."""
-    keep = np.isin(g, _trim_weak_edges(g, a, s.weak_step_fraction))
-    g, a = g[keep], a[keep]
-    keep = np.isin(g, _trim_edges(g))
-    return g[keep], a[keep]
+    i0, i1 = _trim_weak_edges(g, a, s.weak_step_fraction)
+    g, a = g[i0:i1], a[i0:i1]
+    i0, i1 = _trim_edges(g)
+    return g[i0:i1], a[i0:i1]
 
 
-def _stride_edges(g: NDArray[np.float64], longest_s: float) -> NDArray[np.float64]:
-    """Drop a first or last step that ends or starts no stride: Mobilise-D assembles walking bouts from strides
-    (a contact to the next of the same foot, two steps on) of at most ``longest_s``, and a bout runs from its first
-    stride's start to its last stride's end, so a lone step more than ``longest_s`` after the step two before it
-    (a shuffle or a weight shift after a pause of 2-3 s) is no part of the bout, though the step rule's break
-    (``max_break_s`` between steps) would join it."""
-    while g.size >= 3 and g[-1] - g[-3] > longest_s:
-        g = g[:-1]
-    while g.size >= 3 and g[2] - g[0] > longest_s:
-        g = g[1:]
-    return g
+def _stride_edges(g: NDArray[np.float64], longest_s: float) -> tuple[int, int]:
+    """The bounds ``(i0, i1)`` of ``g`` without a first or last step that ends or starts no stride: Mobilise-D
+    assembles walking bouts from strides (a contact to the next of the same foot, two steps on) of at most
+    ``longest_s``, and a bout runs from its first stride's start to its last stride's end, so a lone step more
+    than ``longest_s`` after the step two before it (a shuffle or a weight shift after a pause of 2-3 s) is no
+    part of the bout, though the step rule's break (``max_break_s`` between steps) would join it."""
+    i0, i1 = 0, g.size
+    while i1 - i0 >= 3 and g[i1 - 1] - g[i1 - 3] > longest_s:
+        i1 -= 1
+    while i1 - i0 >= 3 and g[i0 + 2] - g[i0] > longest_s:
+        i0 += 1
+    return i0, i1
 
 
-def _trim_edges(g: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Drop leading/trailing steps of gait initiation/termination: a first or last step interval shorter than
-    0.6 x the bout's median (a weight shift before the first step, a closing half step)."""
-    while g.size >= 3:
-        d = np.diff(g)
+def _trim_edges(g: NDArray[np.float64]) -> tuple[int, int]:
+    """The bounds ``(i0, i1)`` of ``g`` without leading/trailing steps of gait initiation/termination: a first or
+    last step interval shorter than 0.6 x the bout's median (a weight shift before the first step, a closing half
+    step)."""
+    i0, i1 = 0, g.size
+    while i1 - i0 >= 3:
+        d = np.diff(g[i0:i1])
         med = float(np.median(d))
         if d[0] < 0.6 * med:
-            g = g[1:]
+            i0 += 1
         elif d[-1] < 0.6 * med:
-            g = g[:-1]
+            i1 -= 1
         else:
             break
-    return g
+    return i0, i1
 
 
 def corrected_step_times(steps_s: ArrayLike, settings: ActivitySettings = DEFAULT_ACTIVITY_SETTINGS) -> NDArray[np.float64]:
