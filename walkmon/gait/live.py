@@ -874,8 +874,8 @@ class LiveIndicatorStage:
                 f"gravity's direction rests on turns whose axes are in doubt by up to {self._vertical_doubt:.1f} deg "
                 f"(a posture change or the video's drift across a turn), {factor * self._vertical_doubt:.1f} deg of "
                 f"tilt at this heading")
-        # the video's own drift: each turn since the reference was taken may move its pitch and roll (the offline
-        # analysis' bound for a stretch reached through n turns, walkmon.gait.session._reference_model)
+        # the video's own pitch drift: each stretch of tilting far and fast since the reference was taken may move
+        # it (the offline analysis' per-turn bound, walkmon.gait.session._reference_model; turns: their axes' doubt)
         pitch = doubt
         n = self._tilts_since_reference()
         per = self.settings.tilt_drift_deg
