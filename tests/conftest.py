@@ -45,22 +45,11 @@ def unit_settings() -> dict[str, list[str]]:
 
 
 def _boxes(data: bytes, start: int, end: int) -> list[tuple[bytes, int, int]]:
-    """(type, payload start, end) of the ISO/IEC 14496-12 boxes in ``data[start:end]`` (size 1: a 64-bit size
-    follows the type; size 0: the box runs to the end)."""
-    out, i = [], start
-    while i + 8 <= end:
-        size, kind = struct.unpack(">I4s", data[i : i + 8])
-        header = 8
-        if size == 1:
-            (size,) = struct.unpack(">Q", data[i + 8 : i + 16])
-            header = 16
-        elif size == 0:
-            size = end - i
-        if size < header:
-            break
-        out.append((kind, i + header, i + size))
-        i += size
-    return out
+    """(type, payload start, end) of the ISO/IEC 14496-12 boxes in ``data[start:end]``, by walkmon's own box
+    walker (:mod:`walkmon.drivers.mp4_edits`; 64-bit and to-the-end sizes), as a list."""
+    from walkmon.drivers.mp4_edits import _boxes as walk
+
+    return list(walk(data, start, end))
 
 
 def write_display_rotation(path: Path, degrees: int) -> None:

@@ -203,7 +203,7 @@ def test_model_is_reproducible_and_seed_dependent() -> None:
 
 
 # ----------------------------------------------------------------------------------------------- files
-def test_files_and_formats(clip) -> None:
+def test_files_and_formats(clip, simulated_videos) -> None:  # noqa: ANN001
     out = clip.out_dir
     assert {p.name for p in out.iterdir()} >= {"video.mp4", "truth.csv", "imu.csv", "camera.yaml", "meta.json"}
     truth = read_table(out / "truth.csv", TRUTH_COLUMNS)
@@ -223,17 +223,8 @@ def test_files_and_formats(clip) -> None:
     assert 80 <= meta["segments"][0]["cadence_spm"] <= 90
     assert {"walkmon", "numpy", "opencv"} <= set(meta["versions"])
     assert len(meta["imu"]["gyroscope_bias_rps"]) == 3
-    cap = cv2.VideoCapture(str(out / "video.mp4"))
-    try:
-        assert cap.get(cv2.CAP_PROP_FPS) == pytest.approx(30.0)
-        frames = []
-        while True:
-            ok, frame = cap.read()
-            if not ok:
-                break
-            frames.append(frame)
-    finally:
-        cap.release()
+    fps, frames = simulated_videos.frames(out / "video.mp4")
+    assert fps == pytest.approx(30.0)
     assert len(frames) == 180
     assert frames[0].shape == (H, W, 3)
 

@@ -902,12 +902,13 @@ class LiveIndicatorStage:
         sessions)."""
         if self._gravity_known:
             return
+        from walkmon.gait.activity import _runs  # noqa: PLC0415
+
         grid = np.asarray(seg.timeline_t_s, dtype=float)
         handled = np.asarray(seg.handled, dtype=bool)
-        if handled.size != grid.size or not handled.any():
+        if handled.size != grid.size:
             return
-        edges = np.flatnonzero(np.diff(np.r_[0, handled.astype(np.int8), 0]))
-        for i0, i1 in zip(edges[::2], edges[1::2], strict=True):
+        for i0, i1 in _runs(handled):
             a, b = float(grid[i0]), float(grid[i1 - 1])
             if a <= self._tilts_counted_s:
                 self._tilts_counted_s = max(self._tilts_counted_s, b)  # noted already (found again, a little later)
