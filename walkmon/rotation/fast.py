@@ -611,6 +611,11 @@ class FastEngine:
             self._vertical.add_doubt(_FLAGGED_DOUBT_DEG, t_s)
         self._tilt_doubt(orientation, t_s)
         new_kf = self._accept(small, orientation, fit, t_s)
+        if self._orientation is not orientation and self._tilt_history:
+            # a keyframe's refinement or the lines moved this frame's orientation: the window's orientations move
+            # with it, or the correction itself would read as a tilt for the next 0.5 s (review)
+            world = self._orientation @ orientation.T
+            self._tilt_history = deque((t, world @ R) for t, R in self._tilt_history)
         status, reason = fit.status, fit.reason
         if status is EstimateStatus.OK and self._correction_deg > _CORRECTION_FLAG_DEG:
             # The refinement moved this frame's orientation by more than the frame-to-frame accuracy claimed for
@@ -767,20 +772,25 @@ class FastEngine:
     def _tilt_doubt(self, orientation: NDArray[np.float64], t_s: float) -> None:
         """Doubt for the vertical lines' filter while the camera tilts fast (see _FAST_TILT_DEG): the tilt is the
         turn of the world's down direction seen from the camera, so a turn about the vertical adds none, whatever
-        the camera's tilt on the chest. Before the lines measured the vertical, the camera's y axis at the last
-        frame stands in for it (VerticalReference.add_doubt ignores the doubt until then)."""
+        the camera's tilt on the chest. Nothing before the lines have measured the vertical (the filter would
+        ignore the doubt; the camera's y axis standing in for it would read a tilted camera's turns as tilt)."""
         if self._vertical is None:
             return
         down = self._vertical.world_vertical
-        if down is None:
-            down = self._orientation @ np.array([0.0, 1.0, 0.0])
         history = self._tilt_history
+        if down is None:
+            history.clear()
+            return
+        if history and t_s < history[-1][0]:  # time went back (a caller's clock): the window starts afresh
+            history.clear()
         history.append((t_s, orientation))
         while t_s - history[0][0] > _FAST_TILT_WINDOW_S + 1e-3:  # a frame 0.5 s back stays, float error or not
             history.popleft()
         seen = orientation.T @ down
         if angle_between_deg(history[0][1].T @ down, seen) > _FAST_TILT_DEG:
-            self._vertical.add_doubt(_FAST_TILT_DOUBT * angle_between_deg(self._orientation.T @ down, seen), t_s)
+            tilt = angle_between_deg(self._orientation.T @ down, seen)
+            if tilt > 0.0:
+                self._vertical.add_doubt(_FAST_TILT_DOUBT * tilt, t_s)
 
     def _turn_state(self, step_deg: float, dt: float, *, trusted: bool = True) -> str:
         """``"fast"`` above ``max_ok_rate_deg_s``; ``"tail"`` after a fast frame until the rate falls below
