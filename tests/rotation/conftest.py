@@ -28,6 +28,18 @@ class ClipRun:
     def n(self) -> int:
         return len(self.t)
 
+    def gravity(self) -> tuple[np.ndarray, np.ndarray]:
+        """Gravity's direction in the camera frame at every frame, ``(estimated, true)`` (n, 3) each, both from the
+        start frame's true gravity (the estimator reports start-relative orientations)."""
+        truth = np.einsum("ji,njk->nik", self.truth[0], self.truth)
+        down = self.truth[0].T @ np.array([0.0, 1.0, 0.0])
+        return np.einsum("nji,j->ni", self.est, down), np.einsum("nji,j->ni", truth, down)
+
+    def tilt_error_deg(self) -> np.ndarray:
+        """(n,) the angle between the estimated and the true gravity in the camera frame: the tilt error."""
+        est, true = self.gravity()
+        return np.degrees(np.arccos(np.clip(np.sum(est * true, axis=1), -1.0, 1.0)))
+
 
 def run_clip(clip: Path) -> ClipRun:
     """Push every frame of ``clip/video.mp4`` through a RotationEstimator made from ``clip/camera.yaml``."""
@@ -44,6 +56,21 @@ def run_clip(clip: Path) -> ClipRun:
         np.array([o.rotation for o in out[:n]]),
         np.array([o.status in (EstimateStatus.OK, EstimateStatus.FIRST_FRAME) for o in out[:n]]),
     )
+
+
+def render_script(tmp_path_factory: pytest.TempPathFactory, name: str, script: str, seed: int) -> Path:
+    """A session script rendered by the simulator at 320x240 into a fresh temporary folder (its path)."""
+    from walkmon.simulate.session import simulate
+
+    out = tmp_path_factory.mktemp(name)
+    simulate(out, walk=script, seed=seed, width=320, height=240)
+    return out
+
+
+@pytest.fixture(scope="session")
+def script_renderer():
+    """:func:`render_script`, as a fixture (module-scoped clip fixtures take it)."""
+    return render_script
 
 
 @pytest.fixture

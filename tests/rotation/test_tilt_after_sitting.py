@@ -18,21 +18,14 @@ SCRIPT = "mount:-12,stand:2,normal:4,turn:-90,turn:-90,normal:3,pause:2,sit:6,st
 
 
 @pytest.fixture(scope="module")
-def sit_down(tmp_path_factory):
-    from walkmon.simulate.session import simulate
-
-    out = tmp_path_factory.mktemp("sit_down")
-    simulate(out, walk=SCRIPT, seed=4, width=320, height=240)
-    return out
+def sit_down(tmp_path_factory, script_renderer):
+    return script_renderer(tmp_path_factory, "sit_down", SCRIPT, seed=4)
 
 
 def test_tilt_read_short_in_a_sit_down_is_corrected_while_seated(sit_down, clip_run) -> None:
     run = clip_run(sit_down)
-    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)  # start-relative, as the estimator reports
-    down = run.truth[0].T @ np.array([0.0, 1.0, 0.0])  # gravity in the start frame
-    est_g = np.einsum("nji,j->ni", run.est, down)
-    true_g = np.einsum("nji,j->ni", truth, down)
-    tilt_err = np.degrees(np.arccos(np.clip(np.sum(est_g * true_g, axis=1), -1.0, 1.0)))
+    tilt_err = run.tilt_error_deg()
+    true_g = run.gravity()[1]
     timeline = np.genfromtxt(sit_down / "truth_timeline.csv", delimiter=",", names=True, dtype=None, encoding=None)
     activity = np.asarray(timeline["activity"])[: run.n]
     # seated still: the truth's unknown stretch where the true tilt moves by less than 1 deg in 0.5 s

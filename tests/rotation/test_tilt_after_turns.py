@@ -18,22 +18,15 @@ SCRIPT = "mount:-4:1.6,stand:2,normal:5,turn:-90,normal:1,turn:-90,normal:6"
 
 
 @pytest.fixture(scope="module")
-def two_turns(tmp_path_factory):
-    from walkmon.simulate.session import simulate
-
-    out = tmp_path_factory.mktemp("two_turns")
-    simulate(out, walk=SCRIPT, seed=3, width=320, height=240)
-    return out
+def two_turns(tmp_path_factory, script_renderer):
+    return script_renderer(tmp_path_factory, "two_turns", SCRIPT, seed=3)
 
 
 def test_tilt_left_by_turns_is_corrected_after_them(two_turns, clip_run) -> None:
     run = clip_run(two_turns)
     out, n, absolute = run.out, run.n, run.truth
     truth = np.einsum("ji,njk->nik", absolute[0], absolute)  # start-relative, as the estimator reports
-    down = absolute[0].T @ np.array([0.0, 1.0, 0.0])  # gravity in the start frame
-    est_g = np.einsum("nji,j->ni", run.est, down)
-    true_g = np.einsum("nji,j->ni", truth, down)
-    tilt_err = np.degrees(np.arccos(np.clip(np.sum(est_g * true_g, axis=1), -1.0, 1.0)))
+    tilt_err = run.tilt_error_deg()
     t = run.t
     assert np.median(tilt_err[t < 7.5]) < 0.3  # before the turns: the odometry itself
     after = t > 11.0  # the second turn is over by 10.5 s
