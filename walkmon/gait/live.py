@@ -899,7 +899,8 @@ class LiveIndicatorStage:
         its ends a little later. A video's orientation can drift there: sitting down or picking something up, the
         chest drops 0.3-0.5 m while it pitches 25-75 deg, which a camera facing a near surface can take for a
         rotation (4.5 deg of pitch after sitting down, 8 after picking something up, in the simulator's
-        sessions)."""
+        sessions; since 2026-11-28 the rotation estimator takes such a drift out where it sees clear vertical
+        lines, :data:`walkmon.rotation.fast._FAST_TILT_DEG`, and this bound stays for the views without them)."""
         if self._gravity_known:
             return
         from walkmon.gait.activity import _runs  # noqa: PLC0415
