@@ -883,13 +883,17 @@ class FastEngine:
                 if start == "ambiguous":  # looking sideways to the heading, both starts fit and disagree
                     fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
                                reason="translation_ambiguity")
-                elif start != "sideways" and self._models_disagree(rot, pose):
+                elif start != "sideways" and not on_ground_fit and self._models_disagree(rot, pose):
                     # The essential fit wandered further from the rotation-only fit than the parallax explains:
                     # use the rotation-only fit (biased by at most about the parallax, not by degrees) and say
                     # so; keep the tracks either model accepts, since parallax pushes good tracks out of
                     # the rotation-only inlier set. (When the second start won, travelling sideways to the view,
                     # the rotation-only fit took the translation for a rotation: its distance from the essential
-                    # rotation is then no sign of a wandering fit.)
+                    # rotation is then no sign of a wandering fit. Nor when the ground's plane solution, a
+                    # model of its own, agrees with the essential fit: over the near ground seen steeply the
+                    # rotation-only fit is the one the walker's translation pulls, by more than its median
+                    # residual says. Flagged there, it started keyframes 2-4 deg off in pitch, which then stayed:
+                    # bench_rotation --mounts, camera 25 deg down, bend walks: worst raw pitch 42.7 -> 7.6 deg.)
                     fit = _Fit("rotation", rot.rotation, rot.residuals_px, mask, EstimateStatus.LOW_QUALITY,
                                reason="models_disagree")
                     _log.debug("t=%.3f: essential and rotation-only fits disagree; rotation-only used", t_s)
