@@ -78,3 +78,30 @@ def test_where_the_ground_confirms_the_essential_fit_the_rotation_only_fit_is_no
     assert np.count_nonzero(run.ok & (err > 1.0)) < 50, np.count_nonzero(run.ok & (err > 1.0))
     assert not any(o.reason == "models_disagree" for o in run.out)  # 3 frames before
 
+
+@pytest.fixture(scope="module")
+def steep_walk_16s(tmp_path_factory):
+    from walkmon.simulate.session import simulate
+
+    out = tmp_path_factory.mktemp("steep_16s")
+    simulate(out, walk="mount:-25:-2,bend", seconds=16.0, seed=2, width=320, height=240)
+    return out
+
+
+@pytest.mark.slow
+def test_a_ground_fit_in_doubt_holds_the_frame_instead_of_keyframing_the_rotation_only_fit(steep_walk_16s, clip_run):
+    """Where the ground is recognised but neither the essential fit nor its refinement lands on the ground's plane
+    solution, the rotation-only fit was used (flagged ``planar_ambiguity``) and a keyframe started on it: over
+    the near ground that fit carries the walker's translation, and each such keyframe kept 2-4 deg of pitch
+    (this walk, the mounts benchmark's 320x240 bend seed 2: RMS 2.7 deg, 5.1 at worst, a 3.5 deg frame-to-frame
+    error). The frame is now held and tracking restarts from it: it loses only its own frame's rotation."""
+    run = clip_run(steep_walk_16s)
+    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
+    err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+    assert float(np.sqrt(np.mean(err**2))) < 1.5, float(np.sqrt(np.mean(err**2)))  # 2.68 before, 0.92 now
+    assert err.max() < 3.5, err.max()  # 5.07 before, 2.42 now
+    steps = np.einsum("nji,njk->nik", truth[:-1], truth[1:])
+    est_steps = np.einsum("nji,njk->nik", run.est[:-1], run.est[1:])
+    step_err = _angle_deg(np.einsum("nji,njk->nik", steps, est_steps))
+    assert step_err.max() < 1.5, step_err.max()  # 3.52 before, 0.99 now
+    assert any(o.model == "hold" and o.reason == "planar_ambiguity" for o in run.out)
