@@ -167,7 +167,7 @@ DEFAULT_ROTATION_SETTINGS = RotationSettings()
 FLAG_REASONS = {
     "models_disagree": "the essential rotation strays from the rotation-only one beyond what the parallax explains",
     "planar_ambiguity": "the tracks lie on one plane whose two rotations (or the essential's) differ (held where"
-    " that plane is the ground)",
+    " that plane is the ground and the frame turns by less than 2 deg)",
     "step_inconsistent": "the fit jumps away from the frame-to-frame tracking of the same points",
     "ground_step": "the ground plane's fit (kept) jumps away from the frame-to-frame tracking, which the near ground"
     " biases",
