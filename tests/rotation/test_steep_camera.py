@@ -108,12 +108,8 @@ def test_a_ground_fit_in_doubt_holds_the_frame_instead_of_keyframing_the_rotatio
 
 
 @pytest.fixture(scope="module")
-def turn_walk(tmp_path_factory):
-    from walkmon.simulate.session import simulate
-
-    out = tmp_path_factory.mktemp("turn_walk")
-    simulate(out, walk="normal:3,turn:90,normal:3", seed=1, width=320, height=240)
-    return out
+def turn_walk(tmp_path_factory, script_renderer):
+    return script_renderer(tmp_path_factory, "turn_walk", "normal:3,turn:90,normal:3", seed=1)
 
 
 def test_a_held_ground_frame_never_loses_a_turning_frames_rotation(turn_walk, clip_run, monkeypatch):
