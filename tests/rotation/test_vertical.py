@@ -250,3 +250,44 @@ def test_a_look_between_keyframes_only_takes_doubt_up() -> None:
     assert np.array_equal(ref.correct(poor, R, t + 0.2, _normalized, doubt_only=True), R)
     out = ref.correct(poor, R, t + 1.0, _normalized)
     assert rotation_angle_deg(R_true.T @ out) < rotation_angle_deg(R_true.T @ R) - 0.1
+
+
+def _ground_lines(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 2, 3) world segments on the ground 1.3 m below the camera, along the walk (z): the paving joints of a
+    path 1.5 m wide, 1.5-4 m long, starting 1-4 m ahead. Their image lines meet at the horizon ahead."""
+    x = rng.uniform(-0.75, 0.75, n)
+    z0 = rng.uniform(1.0, 4.0, n)
+    z1 = z0 + rng.uniform(1.5, 4.0, n)
+    return np.stack([np.c_[x, np.full(n, 1.3), z0], np.c_[x, np.full(n, 1.3), z1]], axis=1)
+
+
+def test_the_grounds_lines_along_the_walk_are_not_taken_for_the_vertical() -> None:
+    """A chest camera tilted down sees the ground's lines along the walk; they meet at the horizon ahead, above
+    the image centre, within the first look's gate around the camera's y axis. They were learnt as the world's
+    vertical (a camera 25 deg down on a bent walker: 'measured' 90 deg from the true vertical), the ground was
+    then no longer recognised and the walk was lost (114 deg). A vertical that has the camera look up by more
+    than 30 deg is not taken."""
+    rng = np.random.default_rng(11)
+    R = rotation_from_angles_deg(-45.0, 0.0, 1.0)  # 45 deg down: the horizon is as far from the y axis as the vertical
+    img = _drawn(R, _ground_lines(rng, 40))
+    ref = VerticalReference()
+    for k in range(2 * ref.init_measurements):
+        assert np.array_equal(ref.correct(img, R, float(k), _normalized), R)
+    assert ref.world_vertical is None
+
+
+def test_a_camera_tilted_down_learns_the_true_vertical_beside_the_grounds_lines() -> None:
+    """The same view with the lower parts of facades beside the path: their edges give the vertical, the
+    ground's lines do not pull it."""
+    rng = np.random.default_rng(12)
+    R = rotation_from_angles_deg(-25.0, 0.0, 1.0)
+    x = rng.choice([-1.0, 1.0], 40) * rng.uniform(1.5, 3.0, 40)
+    z = rng.uniform(3.0, 7.0, 40)
+    y0 = rng.uniform(-0.8, 0.3, 40)
+    facades = np.stack([np.c_[x, y0, z], np.c_[x, np.full(40, 1.3), z]], axis=1)
+    img = _drawn(R, np.concatenate([facades, _ground_lines(rng, 25)]))
+    ref = VerticalReference()
+    for k in range(ref.init_measurements):
+        ref.correct(img, R, float(k), _normalized)
+    assert ref.world_vertical is not None
+    assert _angle_deg(ref.world_vertical, np.array([0.0, 1.0, 0.0])) < 0.5, ref.world_vertical

@@ -67,6 +67,10 @@ _CLEAR_SD_DEG = 0.5
 _CLEAR_LINES_FACTOR = 2
 #: Looks between keyframes stop this long (s) after the last doubt was added (VerticalReference.due).
 _DOUBT_LOOK_S = 3.0
+#: A vertical that would have the camera look up by more than this (deg) is not taken (VerticalReference.correct).
+#: A chest camera looks level or down; lines that meet above the image are those of the ground along the walk
+#: (kerbs, paving joints), whose vanishing point is the horizon ahead. Set from that geometry, not tuned.
+_MAX_UP_TILT_DEG = 30.0
 
 
 def _sd_deg(cov: NDArray[np.float64]) -> float:
@@ -173,6 +177,13 @@ def _solve(J: NDArray[np.float64], r: NDArray[np.float64], w: NDArray[np.float64
         return None
     out: NDArray[np.float64] = np.asarray(-np.linalg.solve(H, (J * w[:, None]).T @ r), dtype=np.float64)
     return out
+
+
+def _looks_up_deg(v: NDArray[np.float64]) -> float:
+    """How far (deg) the camera looks above level if ``v`` (a direction in the camera frame, either sign) is the
+    vertical: negative when it looks down."""
+    down = v if v[1] >= 0 else -v
+    return math.degrees(math.atan2(-float(down[2]), float(down[1])))
 
 
 def _rotvec_between(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -303,7 +314,7 @@ class VerticalReference:
         if self._n_init < self.init_measurements:
             fit = vertical_fit(p0, p1, predicted, w, gates_deg=_INIT_GATES_DEG if self.world_vertical is None else (2.0,),
                                min_lines=self.min_lines, floor_deg=self.floor_deg, covariance_scale=self.covariance_scale)
-            if fit is None:
+            if fit is None or _looks_up_deg(fit.vertical) > _MAX_UP_TILT_DEG:
                 return self._heading(p0, p1, w, orientation)
             # the world's vertical: an information-weighted mean of the first measurements, while the odometry's
             # drift is still negligible; no correction yet
@@ -324,7 +335,8 @@ class VerticalReference:
             gates = (wide, *(g for g in _INIT_GATES_DEG if g < wide)) if wide > 2.0 else (2.0,)
             fit = vertical_fit(p0, p1, predicted, w, gates_deg=gates, min_lines=self.min_lines,
                                floor_deg=self.floor_deg, covariance_scale=self.covariance_scale)
-            clear = (fit is not None and fit.n_lines >= _CLEAR_LINES_FACTOR * self.min_lines
+            clear = (fit is not None and _looks_up_deg(fit.vertical) <= _MAX_UP_TILT_DEG
+                     and fit.n_lines >= _CLEAR_LINES_FACTOR * self.min_lines
                      and _sd_deg(fit.covariance) <= _CLEAR_SD_DEG)
             if clear and fit is not None and float(np.linalg.norm(fit.delta)) <= math.radians(wide):
                 return self._update(fit, P, p0, p1, w, orientation, t_s, spend_doubt=True)
