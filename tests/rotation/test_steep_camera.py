@@ -133,3 +133,57 @@ def test_a_held_ground_frame_never_loses_a_turning_frames_rotation(turn_walk, cl
     assert len(held) > 50  # the fake reaches the hold
     assert max(true_steps[i - 1] for i in held) < 2.0  # 1.32 here; 2.85 unbounded
     assert err[-1] < 7.5, err[-1]  # 4.98 here; 9.96 unbounded
+
+
+def _about(axis: np.ndarray, deg: float) -> np.ndarray:
+    """The rotation by ``deg`` about unit ``axis`` (Rodrigues)."""
+    k = axis / np.linalg.norm(axis)
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    a = np.radians(deg)
+    return np.eye(3) + np.sin(a) * K + (1.0 - np.cos(a)) * K @ K
+
+
+@pytest.mark.parametrize("turned_deg", [0.0, 90.0, 180.0])
+def test_after_a_u_turn_a_steep_cameras_ground_is_still_recognised(turned_deg: float) -> None:
+    """No vertical lines measured the vertical, so the start's y axis, through the chained orientation, stood for
+    it: wrong by the camera's start tilt, an error a turn swings about the true vertical. A camera 45 deg below
+    level (25 deg on a walker bent 20) that had turned 180 deg had it on its optical axis: the ground's normal and
+    the direction of travel were both 45 deg from it, the ground was not recognised, and every frame's
+    rotation-only fallback drifted the walk off. The geometry here is exact: the true vertical and direction of
+    travel in the camera frame, the orientation a perfect chain would have after turning about the vertical."""
+    from walkmon.camera.model import CameraModel
+    from walkmon.rotation import RotationSettings
+    from walkmon.rotation import geometry as geo
+    from walkmon.rotation.fast import FastEngine
+
+    tilt = np.radians(45.0)
+    down = np.array([0.0, np.cos(tilt), np.sin(tilt)])  # the world's down seen from the camera (y down, z ahead)
+    ahead = np.array([0.0, -np.sin(tilt), np.cos(tilt)])  # the walk's direction, level
+    K = np.array([[230.0, 0.0, 159.5], [0.0, 230.0, 119.5], [0.0, 0.0, 1.0]])
+    engine = FastEngine(CameraModel(320, 240, K), RotationSettings())
+    assert engine._vertical is None or engine._vertical.world_vertical is None  # nothing measured
+    # the keyframe's orientation (camera to start frame) after the turn about the vertical; the camera is rigid on
+    # the trunk, so the vertical and the walk's direction are where they were in the camera frame
+    engine._R_kf = _about(down, turned_deg)
+    R_ground, R_other = _about(np.array([1.0, 0.0, 0.0]), 0.3), _about(np.array([1.0, 0.0, 0.0]), -1.2)
+    hom = geo.HomographyFit(np.eye(3), np.eye(3), np.zeros(1), np.ones(1, bool), 1.5,
+                            ((R_other, ahead), (R_ground, down)))
+    pose = geo.PoseFit(np.eye(3), np.array([0.0, 0.0, 1.0]), np.zeros(1), np.ones(1, bool))
+    found = engine._ground_solution(hom, pose)
+    assert found is not None and np.allclose(found, R_ground), turned_deg
+
+
+@pytest.fixture(scope="module")
+def steep_u_turn(tmp_path_factory, script_renderer):
+    return script_renderer(tmp_path_factory, "steep_u_turn", "mount:-25:-2,bend:4,turn:180,bend:4", seed=2)
+
+
+def test_a_steep_camera_that_turns_is_not_lost(steep_u_turn, clip_run) -> None:
+    """End to end, the walk whose U-turn hid the ground (the test above). Before: 9.9 deg RMS, 17.3 at the end;
+    now 4.1 and 5.6. Still far from issue 14's 0.5 deg: every frame of the fast turn adds 0.1-0.3 deg of bias (the
+    essential fit over the near ground with one frame's baseline), which this does not address."""
+    run = clip_run(steep_u_turn)
+    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
+    err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+    assert float(np.sqrt(np.mean(err**2))) < 7.0, float(np.sqrt(np.mean(err**2)))
+    assert err[-1] < 10.0, err[-1]

@@ -164,6 +164,28 @@ _HIGHPASS_GAIN = 2.0
 _FILTER_WIDTH_PX = 320.0
 
 
+def _pick_ground(hom: geo.HomographyFit, down: NDArray[np.float64], *, measured: bool) -> int | None:
+    """The index of the plane solution that is the ground seen with ``down`` (unit, current camera frame) taken for
+    the vertical, by the rules of :meth:`FastEngine._ground_solution`, or None."""
+    angles = [angle_between_deg(n, down) for _, n in hom.solutions]
+
+    def pick(cone: float, other: float) -> int | None:
+        near = [i for i, a in enumerate(angles) if a <= cone]
+        if len(near) != 1 or any(a < other for i, a in enumerate(angles) if i != near[0]):
+            return None
+        return near[0]
+
+    k = pick(_GROUND_NORMAL_DEG, _OTHER_NORMAL_DEG)
+    if k is None and not measured:
+        k = pick(_ASSUMED_GROUND_NORMAL_DEG, _ASSUMED_OTHER_NORMAL_DEG)
+        if k is not None:
+            # the angles between the planes (their normals as lines, signs left out)
+            apart = [angle_between_deg(n, hom.solutions[k][1]) for i, (_, n) in enumerate(hom.solutions) if i != k]
+            if any(min(a, 180.0 - a) < _ASSUMED_NORMALS_APART_DEG for a in apart):
+                k = None
+    return k
+
+
 class FastEngine:
     """State of the fast method for one camera size; see the module docstring."""
 
@@ -532,9 +554,18 @@ class FastEngine:
         raw pitch error 3.0 deg against 0.05 level). The plane's two solutions differ in their normals: the
         true one is the ground's, the vertical; the other lies near the direction of travel. The vertical in
         the camera: the vertical lines' world vertical when measured (:mod:`walkmon.rotation.vertical`), else the
-        first frame's y axis, through the current orientation. The normals are compared with their signs (each
-        points to its plane, :func:`geometry.homography_fit`): the ground's lies on the side of the image's down,
-        the other solution's, the direction of travel, about 90 deg from it. Compared without them (as at first),
+        first frame's y axis through the current orientation, and when that finds no ground, the camera's own y
+        axis. The first is wrong by the camera's start tilt, and a turn swings that error about the vertical: after
+        a U-turn a camera 45 deg below level had it on the optical axis, the ground's normal and the direction of
+        travel equally far from it (45 deg), neither was taken, and every frame's rotation-only fallback drifted
+        the walk off (a 25 deg-down camera on a bent walker with a U-turn and a 90 deg turn, 320x240 seeds 1-3:
+        10.8-13.7 deg RMS with the vertical lines' up-tilt bound alone, 5.3-5.7 now). The camera's own y axis is
+        fixed on the trunk, which turns about the vertical: its error is the camera's tilt on the wearer whatever
+        the turns, always on the side the rules expect. It comes second because the trunk's sway moves it by a few
+        degrees each step, which the first follows: alone, it changed the fog and night clips' picks (night seed 3
+        raw 0.21 -> 0.27 deg). The normals are compared with their signs (each points to its plane,
+        :func:`geometry.homography_fit`): the ground's lies on the side of the image's down, the other solution's,
+        the direction of travel, about 90 deg from it. Compared without them (as at first),
         both were equally far from a vertical 45 deg off: a camera 25 deg down whose wearer bends forward 20 deg
         had neither taken, every frame flagged and the rotation-only fallback drifting (bench_rotation --mounts:
         61 deg of pitch; 0.6 deg now). Learning the vertical from the recognised ground normals was tried: it
@@ -548,25 +579,11 @@ class FastEngine:
             return None
         measured_world = None if self._vertical is None else self._vertical.world_vertical
         measured = measured_world is not None
-        world = measured_world if measured_world is not None else np.array([0.0, 1.0, 0.0])
-        down = (self._R_kf @ pose.rotation).T @ world
-        down /= float(np.linalg.norm(down))
-        angles = [angle_between_deg(n, down) for _, n in hom.solutions]
-
-        def pick(cone: float, other: float) -> int | None:
-            near = [i for i, a in enumerate(angles) if a <= cone]
-            if len(near) != 1 or any(a < other for i, a in enumerate(angles) if i != near[0]):
-                return None
-            return near[0]
-
-        k = pick(_GROUND_NORMAL_DEG, _OTHER_NORMAL_DEG)
+        camera_y = np.array([0.0, 1.0, 0.0])
+        down = (self._R_kf @ pose.rotation).T @ (measured_world if measured_world is not None else camera_y)
+        k = _pick_ground(hom, down / float(np.linalg.norm(down)), measured=measured)
         if k is None and not measured:
-            k = pick(_ASSUMED_GROUND_NORMAL_DEG, _ASSUMED_OTHER_NORMAL_DEG)
-            if k is not None:
-                # the angles between the planes (their normals as lines, signs left out)
-                apart = [angle_between_deg(n, hom.solutions[k][1]) for i, (_, n) in enumerate(hom.solutions) if i != k]
-                if any(min(a, 180.0 - a) < _ASSUMED_NORMALS_APART_DEG for a in apart):
-                    k = None
+            k = _pick_ground(hom, camera_y, measured=False)
         return None if k is None else hom.solutions[k][0]
 
     def _hold(self, t_s: float, status: EstimateStatus, reason: str, n_tracks: int = 0) -> RotationEstimate:
