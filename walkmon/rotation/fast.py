@@ -58,7 +58,8 @@ _PLANAR_AMBIGUITY_TRACK_PX = 4.0
 #: (known to a few degrees; see ``FastEngine._ground_solution``). Set a priori, not tuned.
 _GROUND_NORMAL_DEG = 30.0
 _OTHER_NORMAL_DEG = 50.0
-#: When the vertical is the camera's start assumed level (no vertical lines seen) and that rule finds no ground: a
+#: When the vertical is assumed (no vertical lines seen: the first frame's y axis, then the camera's own, see
+#: _CAMERA_Y_OTHER_NORMAL_DEG) and that rule finds no ground: a
 #: chest camera may start 45 deg below level (tilted down on a stooping walker), so the ground's normal is taken
 #: up to 60 deg from it, when the other solution's lies 90 deg or more from it and the two normals at least
 #: ``_ASSUMED_NORMALS_APART_DEG`` apart: the other's is the walk's direction, which lies in the ground (90 deg;
@@ -68,6 +69,12 @@ _OTHER_NORMAL_DEG = 50.0
 _ASSUMED_GROUND_NORMAL_DEG = 60.0
 _ASSUMED_OTHER_NORMAL_DEG = 90.0
 _ASSUMED_NORMALS_APART_DEG = 70.0
+#: When neither finds the ground, the same rules are tried against the camera's own y axis (a turn swings the
+#: first frame's y axis, wrong by the camera's start tilt, about the vertical: FastEngine._ground_solution), for a
+#: camera tilted down only: every other solution's normal at least this far (deg) from that axis. The other one is
+#: the walk's direction, 90 deg plus the camera's downward tilt from it; a facade beside a walker going down a ramp
+#: passed the rules with it 90.3-96 deg away (review). Set from that geometry, not tuned.
+_CAMERA_Y_OTHER_NORMAL_DEG = 100.0
 #: A second essential refinement, started across the view, is tried when the camera looks more than this (deg)
 #: away from the walker's heading (the optical axis low-passed over _HEADING_TAU_S); it replaces the first when
 #: its robust cost is below _ALT_COST_RATIO times the first's. See FastEngine._essential_fit.
@@ -164,14 +171,17 @@ _HIGHPASS_GAIN = 2.0
 _FILTER_WIDTH_PX = 320.0
 
 
-def _pick_ground(hom: geo.HomographyFit, down: NDArray[np.float64], *, measured: bool) -> int | None:
+def _pick_ground(
+    hom: geo.HomographyFit, down: NDArray[np.float64], *, measured: bool, other_min_deg: float = 0.0,
+) -> int | None:
     """The index of the plane solution that is the ground seen with ``down`` (unit, current camera frame) taken for
-    the vertical, by the rules of :meth:`FastEngine._ground_solution`, or None."""
+    the vertical, by the rules of :meth:`FastEngine._ground_solution`, every other solution's normal at least
+    ``other_min_deg`` from ``down`` as well; or None."""
     angles = [angle_between_deg(n, down) for _, n in hom.solutions]
 
     def pick(cone: float, other: float) -> int | None:
         near = [i for i, a in enumerate(angles) if a <= cone]
-        if len(near) != 1 or any(a < other for i, a in enumerate(angles) if i != near[0]):
+        if len(near) != 1 or any(a < max(other, other_min_deg) for i, a in enumerate(angles) if i != near[0]):
             return None
         return near[0]
 
@@ -546,7 +556,9 @@ class FastEngine:
         """The rotation of the plane solution that is the ground, when exactly one visible solution has its
         normal within ``_GROUND_NORMAL_DEG`` of the vertical and every other is at least ``_OTHER_NORMAL_DEG``
         from it, or, when the vertical is assumed (not measured) and that finds none, by the ``_ASSUMED_*`` rule;
-        else None (a wall or door ahead, a facade beside: their normals are horizontal).
+        else None (a wall or door ahead, a facade beside: their normals are horizontal; but a facade beside a
+        walker going down a ramp, seen by a camera tilted up, passed the assumed rule in 6 of 20 synthetic frames,
+        5 deg off: review, not fixed).
 
         A camera tilted down on the chest sees mostly the ground: a plane, so the essential fit is ill-posed and
         was flagged (``planar_ambiguity``) and replaced by the rotation-only fit, whose bias by the walker's
@@ -555,15 +567,16 @@ class FastEngine:
         true one is the ground's, the vertical; the other lies near the direction of travel. The vertical in
         the camera: the vertical lines' world vertical when measured (:mod:`walkmon.rotation.vertical`), else the
         first frame's y axis through the current orientation, and when that finds no ground, the camera's own y
-        axis. The first is wrong by the camera's start tilt, and a turn swings that error about the vertical: after
-        a U-turn a camera 45 deg below level had it on the optical axis, the ground's normal and the direction of
-        travel equally far from it (45 deg), neither was taken, and every frame's rotation-only fallback drifted
-        the walk off (a 25 deg-down camera on a bent walker with a U-turn and a 90 deg turn, 320x240 seeds 1-3:
-        10.8-13.7 deg RMS with the vertical lines' up-tilt bound alone, 5.3-5.7 now). The camera's own y axis is
-        fixed on the trunk, which turns about the vertical: its error is the camera's tilt on the wearer whatever
-        the turns, always on the side the rules expect. It comes second because the trunk's sway moves it by a few
-        degrees each step, which the first follows: alone, it changed the fog and night clips' picks (night seed 3
-        raw 0.21 -> 0.27 deg). The normals are compared with their signs (each points to its plane,
+        axis for a camera tilted down (``_CAMERA_Y_OTHER_NORMAL_DEG``). The first is wrong by the camera's start
+        tilt, and a turn swings that error about the vertical: after a U-turn a camera 45 deg below level had it on
+        the optical axis, the ground's normal and the direction of travel equally far from it (45 deg), neither was
+        taken, and every frame's rotation-only fallback drifted the walk off (a 25 deg-down camera on a bent walker
+        with a U-turn and a 90 deg turn, 320x240 seeds 1-3: 10.8-13.7 deg RMS with the vertical lines' up-tilt
+        bound alone, 5.3-5.7 now). The camera's own y axis is fixed on the trunk, which turns about the vertical:
+        its error is the camera's tilt on the wearer (mount and stoop) whatever the turns, on the side of the
+        image's down for a camera tilted down. It comes second because the trunk's sway moves it by a few degrees
+        each step, which the first follows: alone, it changed the fog and night clips' picks (night seed 3 raw
+        0.21 -> 0.27 deg). The normals are compared with their signs (each points to its plane,
         :func:`geometry.homography_fit`): the ground's lies on the side of the image's down, the other solution's,
         the direction of travel, about 90 deg from it. Compared without them (as at first),
         both were equally far from a vertical 45 deg off: a camera 25 deg down whose wearer bends forward 20 deg
@@ -579,11 +592,11 @@ class FastEngine:
             return None
         measured_world = None if self._vertical is None else self._vertical.world_vertical
         measured = measured_world is not None
-        camera_y = np.array([0.0, 1.0, 0.0])
-        down = (self._R_kf @ pose.rotation).T @ (measured_world if measured_world is not None else camera_y)
+        y_axis = np.array([0.0, 1.0, 0.0])  # the first frame's, then the camera's own
+        down = (self._R_kf @ pose.rotation).T @ (measured_world if measured_world is not None else y_axis)
         k = _pick_ground(hom, down / float(np.linalg.norm(down)), measured=measured)
         if k is None and not measured:
-            k = _pick_ground(hom, camera_y, measured=False)
+            k = _pick_ground(hom, y_axis, measured=False, other_min_deg=_CAMERA_Y_OTHER_NORMAL_DEG)
         return None if k is None else hom.solutions[k][0]
 
     def _hold(self, t_s: float, status: EstimateStatus, reason: str, n_tracks: int = 0) -> RotationEstimate:

@@ -68,8 +68,10 @@ _CLEAR_LINES_FACTOR = 2
 #: Looks between keyframes stop this long (s) after the last doubt was added (VerticalReference.due).
 _DOUBT_LOOK_S = 3.0
 #: A vertical that would have the camera look up by more than this (deg) is not taken (VerticalReference.correct).
-#: A chest camera looks level or down; lines that meet above the image are those of the ground along the walk
-#: (kerbs, paving joints), whose vanishing point is the horizon ahead. Set from that geometry, not tuned.
+#: A chest camera looks level or down (a little up on a wearer leaning back). The ground's lines along the walk
+#: (kerbs, paving joints) meet at the horizon ahead, which for a camera d deg down would be a vertical with the
+#: camera looking up by 90 - d deg: refused while d < 60 (a 25 deg mount on a walker stooping 30 deg is 55 deg
+#: down; review found a 65 deg-down camera learns the horizon). Set from that geometry, not tuned.
 _MAX_UP_TILT_DEG = 30.0
 
 
