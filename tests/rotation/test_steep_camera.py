@@ -180,9 +180,9 @@ def steep_u_turn(tmp_path_factory, script_renderer):
 
 def test_a_steep_camera_that_turns_is_not_lost(steep_u_turn, clip_run) -> None:
     """End to end, the walk whose U-turn hid the ground (the test above). Before: 9.9 deg RMS, 17.3 at the end;
-    now 4.1 and 5.6. Still far from issue 14's 0.5 deg: every frame of the fast turn adds 0.1-0.3 deg of bias (the
-    rotation-only, essential and ground fits agree within that each frame: the tracks carry it), which this does
-    not address."""
+    now 4.1 and 5.6. Still far from issue 14's 0.5 deg: every frame of the fast turn adds 0.1-0.3 deg of bias
+    (the rotation-only, essential and ground fits are each biased, each its own way, also in an image without blur
+    or noise), which this does not address."""
     run = clip_run(steep_u_turn)
     truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
     err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
