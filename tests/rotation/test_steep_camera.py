@@ -38,10 +38,16 @@ def _angle_deg(R: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip((np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)))
 
 
+def _errors_deg(run) -> tuple[np.ndarray, np.ndarray]:
+    """``(truth, error)``: the true orientations start-relative, as the estimator reports them (n, 3, 3), and the
+    angle between estimate and truth at every frame (n,)."""
+    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
+    return truth, _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+
+
 def test_steep_camera_on_a_bent_walker_keeps_its_orientation(steep_walk, clip_run) -> None:
     run = clip_run(steep_walk)
-    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)  # start-relative, as the estimator reports
-    err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+    truth, err = _errors_deg(run)
     assert err.max() < 1.5, err.max()  # 118 / 33 deg (ground not recognised), 2.4 / 6.9 (chain preferred)
     assert np.median(err) < 1.0, np.median(err)
     # the walk is seen: most frames are estimated ok, and no ok frame jumps. (The worst ok frame-to-frame error
@@ -71,8 +77,7 @@ def test_where_the_ground_confirms_the_essential_fit_the_rotation_only_fit_is_no
     2-4 deg of pitch. On this walk: 15.4 deg at worst, RMS 7.2, 105 ok frames more than 1 deg off (16 s, the
     mounts benchmark: 86 deg by the end). Two models that agree now stand against the third: 1.9, 0.67, 26."""
     run = clip_run(steep_walk_640)
-    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
-    err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+    _, err = _errors_deg(run)
     assert float(np.sqrt(np.mean(err**2))) < 1.2, float(np.sqrt(np.mean(err**2)))
     assert err.max() < 3.0, err.max()
     assert np.count_nonzero(run.ok & (err > 1.0)) < 50, np.count_nonzero(run.ok & (err > 1.0))
@@ -96,8 +101,7 @@ def test_a_ground_fit_in_doubt_holds_the_frame_instead_of_keyframing_the_rotatio
     (this walk, the mounts benchmark's 320x240 bend seed 2: RMS 2.7 deg, 5.1 at worst, a 3.5 deg frame-to-frame
     error). The frame is now held and tracking restarts from it: it loses only its own frame's rotation."""
     run = clip_run(steep_walk_16s)
-    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
-    err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+    truth, err = _errors_deg(run)
     assert float(np.sqrt(np.mean(err**2))) < 1.5, float(np.sqrt(np.mean(err**2)))  # 2.68 before, 0.92 now
     assert err.max() < 3.5, err.max()  # 5.07 before, 2.42 now
     steps = np.einsum("nji,njk->nik", truth[:-1], truth[1:])
@@ -126,8 +130,7 @@ def test_a_held_ground_frame_never_loses_a_turning_frames_rotation(turn_walk, cl
     monkeypatch.setattr(fast.FastEngine, "_plane_ambiguous", every_plane_a_ground_in_doubt)
     monkeypatch.setattr(fast.FastEngine, "_ground_refit", lambda self, q_kf, q_cur, ground: None)
     run = clip_run(turn_walk)
-    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
-    err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+    truth, err = _errors_deg(run)
     true_steps = _angle_deg(np.einsum("nji,njk->nik", truth[:-1], truth[1:]))
     held = [i for i, o in enumerate(run.out) if o.model == "hold" and o.reason == "planar_ambiguity"]
     assert len(held) > 50  # the fake reaches the hold
@@ -136,11 +139,10 @@ def test_a_held_ground_frame_never_loses_a_turning_frames_rotation(turn_walk, cl
 
 
 def _about(axis: np.ndarray, deg: float) -> np.ndarray:
-    """The rotation by ``deg`` about unit ``axis`` (Rodrigues)."""
-    k = axis / np.linalg.norm(axis)
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    a = np.radians(deg)
-    return np.eye(3) + np.sin(a) * K + (1.0 - np.cos(a)) * K @ K
+    """The rotation by ``deg`` about ``axis``."""
+    from walkmon.rotation.geometry import rotation_from_rotvec
+
+    return rotation_from_rotvec(np.radians(deg) * axis / np.linalg.norm(axis))
 
 
 @pytest.mark.parametrize("turned_deg", [0.0, 90.0, 180.0])
@@ -184,8 +186,7 @@ def test_a_steep_camera_that_turns_is_not_lost(steep_u_turn, clip_run) -> None:
     (the rotation-only, essential and ground fits are each biased, each its own way, also in an image without blur
     or noise), which this does not address."""
     run = clip_run(steep_u_turn)
-    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
-    err = _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
+    _, err = _errors_deg(run)
     assert float(np.sqrt(np.mean(err**2))) < 7.0, float(np.sqrt(np.mean(err**2)))
     assert err[-1] < 10.0, err[-1]
 
