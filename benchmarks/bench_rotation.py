@@ -48,6 +48,7 @@ from walkmon.rotation import (
     RotationEstimator,
     RotationSettings,
 )
+from walkmon.rotation.geometry import rotation_angle_deg
 from walkmon.tables import read_table
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -356,8 +357,8 @@ def angle_rmse_deg(est: np.ndarray, truth: np.ndarray) -> float:
     n = min(len(est), len(truth))
     Re = np.asarray(rotation_from_angles_deg(est[:n, 0], est[:n, 1], est[:n, 2]), dtype=float).reshape(n, 3, 3)
     Rt = np.asarray(rotation_from_angles_deg(truth[:n, 0], truth[:n, 1], truth[:n, 2]), dtype=float).reshape(n, 3, 3)
-    cos = (np.trace(np.einsum("nji,njk->nik", Rt, Re), axis1=-2, axis2=-1) - 1.0) / 2.0
-    return round(float(np.sqrt(np.mean(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))) ** 2))), 4)
+    angles = np.array([rotation_angle_deg(t.T @ e) for t, e in zip(Rt, Re, strict=True)])
+    return round(float(np.sqrt(np.mean(angles**2))), 4)
 
 
 def mounts(args: argparse.Namespace) -> int:
