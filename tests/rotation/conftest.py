@@ -28,12 +28,16 @@ class ClipRun:
     def n(self) -> int:
         return len(self.t)
 
+    @property
+    def relative_truth(self) -> np.ndarray:
+        """(n, 3, 3) the true orientations relative to the first frame's, as the estimator reports its own."""
+        return np.einsum("ji,njk->nik", self.truth[0], self.truth)
+
     def gravity(self) -> tuple[np.ndarray, np.ndarray]:
         """Gravity's direction in the camera frame at every frame, ``(estimated, true)`` (n, 3) each, both from the
         start frame's true gravity (the estimator reports start-relative orientations)."""
-        truth = np.einsum("ji,njk->nik", self.truth[0], self.truth)
         down = self.truth[0].T @ np.array([0.0, 1.0, 0.0])
-        return np.einsum("nji,j->ni", self.est, down), np.einsum("nji,j->ni", truth, down)
+        return np.einsum("nji,j->ni", self.est, down), np.einsum("nji,j->ni", self.relative_truth, down)
 
     def tilt_error_deg(self) -> np.ndarray:
         """(n,) the angle between the estimated and the true gravity in the camera frame: the tilt error."""

@@ -26,12 +26,8 @@ SCRIPT = "mount:-25:-2,bend:8"
 
 
 @pytest.fixture(scope="module", params=[1, 3])
-def steep_walk(request, tmp_path_factory):
-    from walkmon.simulate.session import simulate
-
-    out = tmp_path_factory.mktemp(f"steep_{request.param}")
-    simulate(out, walk=SCRIPT, seed=request.param, width=320, height=240)
-    return out
+def steep_walk(request, tmp_path_factory, script_renderer):
+    return script_renderer(tmp_path_factory, f"steep_{request.param}", SCRIPT, seed=request.param)
 
 
 def _angle_deg(R: np.ndarray) -> np.ndarray:
@@ -41,7 +37,7 @@ def _angle_deg(R: np.ndarray) -> np.ndarray:
 def _errors_deg(run) -> tuple[np.ndarray, np.ndarray]:
     """``(truth, error)``: the true orientations start-relative, as the estimator reports them (n, 3, 3), and the
     angle between estimate and truth at every frame (n,)."""
-    truth = np.einsum("ji,njk->nik", run.truth[0], run.truth)
+    truth = run.relative_truth
     return truth, _angle_deg(np.einsum("nji,njk->nik", run.est, truth))
 
 

@@ -24,8 +24,7 @@ def two_turns(tmp_path_factory, script_renderer):
 
 def test_tilt_left_by_turns_is_corrected_after_them(two_turns, clip_run) -> None:
     run = clip_run(two_turns)
-    out, n, absolute = run.out, run.n, run.truth
-    truth = np.einsum("ji,njk->nik", absolute[0], absolute)  # start-relative, as the estimator reports
+    out, n, truth = run.out, run.n, run.relative_truth
     tilt_err = run.tilt_error_deg()
     t = run.t
     assert np.median(tilt_err[t < 7.5]) < 0.3  # before the turns: the odometry itself
