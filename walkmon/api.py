@@ -267,8 +267,9 @@ def analyze_angles(
 def measured_rows(model: ArrayLike | Sequence[str] | None, fused: ArrayLike | None = None) -> NDArray[np.bool_] | None:
     """The rows of a video's angles that measure something (None: no ``model`` column, or no held row: every row
     does): not the frames the estimator held (``model`` ``hold``: the last orientation repeated over a lens cap, a
-    repeated, featureless or lost frame), unless an IMU carried them: ``fused`` per row (1: the fusion gave the
-    row, as the session log's and ``sessions export``'s ``fused`` column says; 0 or NaN: the camera's alone).
+    repeated, featureless or lost frame; ``coast``: such a frame in a turn, carried on at the last rate), unless an
+    IMU carried them: ``fused`` per row (1: the fusion gave the row, as the session log's and ``sessions
+    export``'s ``fused`` column says; 0 or NaN: the camera's alone).
     The session analysis leaves the held rows out, so a held stretch of a second or more is a gap of the
     recording (unknown, no steps, no bout across it, no timeline row): held through a 4 s lens cap mid-walk, the
     flat angles read as 4 s of standing. Fewer than 10 rows left: InvalidInputError (nothing measured to
@@ -276,7 +277,9 @@ def measured_rows(model: ArrayLike | Sequence[str] | None, fused: ArrayLike | No
     row (a frame held during an IMU dropout is then held, not left out: not handled)."""
     if model is None:
         return None
-    held = np.asarray([str(m) == "hold" for m in np.asarray(model).reshape(-1)], dtype=bool)
+    from walkmon.rotation.types import UNMEASURED_MODELS  # noqa: PLC0415
+
+    held = np.asarray([str(m) in UNMEASURED_MODELS for m in np.asarray(model).reshape(-1)], dtype=bool)
     if fused is not None:
         f = np.asarray(fused, dtype=float).reshape(-1)
         if f.shape == held.shape:
@@ -373,25 +376,31 @@ def status_summary(estimates: Sequence[RotationEstimate]) -> str:
     ok counts the measured frames (``ok`` and the ``first_frame``); a frame whose status is not ok is either
     still estimated (``low_quality``) and counted under its status with its reasons
     (:data:`walkmon.rotation.FLAG_REASONS`; "rotation-only" when an estimate gives none), or held (model
-    ``hold``: the last orientation repeated) and counted under "held" with its statuses. Zero counts are left out.
+    ``hold``: the last orientation repeated) and counted under "held" with its statuses, or carried on through a
+    turn (model ``coast``) and counted under "coasted". Zero counts are left out.
     """
     from collections import Counter  # noqa: PLC0415
 
+    from walkmon.rotation.types import UNMEASURED_MODELS  # noqa: PLC0415
+
     n_ok = sum(e.status.is_measured for e in estimates)
-    estimated = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model != "hold")
+    estimated = Counter(e.status.value for e in estimates
+                        if not e.status.is_measured and e.model not in UNMEASURED_MODELS)
     held = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model == "hold")
+    coasted = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model == "coast")
     parts = [f"{n_ok} ok"] if n_ok else []
     for status, n in sorted(estimated.items()):
         given = Counter(e.reason for e in estimates
-                        if e.status.value == status and e.model != "hold" and not e.status.is_measured)
+                        if e.status.value == status and e.model not in UNMEASURED_MODELS and not e.status.is_measured)
         if set(given) == {""}:  # no reason given (the paper method): the fast method's old label
             parts.append(f"{n} {status}{' (rotation-only)' if status == 'low_quality' else ''}")
         else:
             reasons = ", ".join(f"{k} {r or 'unstated'}" for r, k in given.most_common())
             parts.append(f"{n} {status} ({reasons})")
-    if held:
-        why = ", ".join(status if len(held) == 1 else f"{n} {status}" for status, n in sorted(held.items()))
-        parts.append(f"{sum(held.values())} held ({why})")
+    for name, group in (("held", held), ("coasted", coasted)):
+        if group:
+            why = ", ".join(status if len(group) == 1 else f"{n} {status}" for status, n in sorted(group.items()))
+            parts.append(f"{sum(group.values())} {name} ({why})")
     return f"{len(estimates)} frames: {', '.join(parts) or 'none'}"
 
 

@@ -108,6 +108,9 @@ def test_status_summary_tells_estimated_low_quality_from_held_frames():
                                       "4 held (1 low_quality, 2 repeated_frame, 1 too_few_features)")
     assert status_summary(frames[:6]) == "6 frames: 6 ok"
     assert status_summary([est(S.TOO_FEW_FEATURES, "hold")] * 2) == "2 frames: 2 held (too_few_features)"
+    # a frame that would be held, in a turn, is carried on at the last rate: counted as such, not as estimated
+    assert status_summary(frames[:6] + [est(S.LOW_QUALITY, "coast"), est(S.LOW_QUALITY, "hold")]) == (
+        "8 frames: 6 ok, 1 held (low_quality), 1 coasted (low_quality)")
     # the fast method says why it flags a frame: the summary counts the reasons
     flagged = [make_estimate(0.0, np.eye(3), n_inliers=9, model=m, status=S.LOW_QUALITY, reason=r)
                for m, r in [("essential", "fast_rotation")] * 2 + [("rotation", "planar_ambiguity")]]

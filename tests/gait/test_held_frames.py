@@ -79,6 +79,9 @@ def test_held_rows_are_left_out_unless_an_imu_carried_them() -> None:
     assert measured_rows(["rotation"] * 40) is None and measured_rows(None) is None
     with pytest.raises(InvalidInputError, match="only 5 of 40 frames were measured"):
         measured_rows(["rotation"] * 5 + ["hold"] * 35)
+    # a frame carried on through a turn at the last rate (model 'coast') measured nothing either
+    keep = measured_rows(["identity"] + ["essential"] * 19 + ["coast", "hold"] + ["essential"] * 10)
+    assert keep is not None and keep.tolist() == [True] * 20 + [False] * 2 + [True] * 10
 
 
 def test_live_monitor_reads_a_lens_cap_as_unknown_not_standing(

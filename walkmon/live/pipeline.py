@@ -651,9 +651,12 @@ class LivePipeline:
         if self.on_frame is not None:
             self.on_frame(FrameResult(frame.t_s, angles, latency_ms, estimate, frame.truth_angles_deg,
                                       abs_angles, self._fusion_mode))
-        if str(getattr(estimate, "model", "")) == "hold" and self._fusion_mode != "fused":
-            # held (a covered lens, darkness, a lost frame) and no IMU carried it: it measured nothing (flat
-            # angles that read as standing); the offline analysis leaves the same frames out (api.measured_rows)
+        from walkmon.rotation.types import UNMEASURED_MODELS  # noqa: PLC0415  (cached after the first frame)
+
+        if str(getattr(estimate, "model", "")) in UNMEASURED_MODELS and self._fusion_mode != "fused":
+            # held (a covered lens, darkness, a lost frame) or carried on through a turn, and no IMU carried it: it
+            # measured nothing (flat angles that read as standing); the offline analysis leaves the same frames out
+            # (api.measured_rows)
             ind = self.indicators.push_unmeasured(frame.t_s)
         else:
             ind = self.indicators.push(frame.t_s, angles, abs_angles)

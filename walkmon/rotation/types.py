@@ -24,6 +24,7 @@ __all__ = [
     "METHODS",
     "EstimateStatus",
     "RotationEstimate",
+    "UNMEASURED_MODELS",
     "RotationSettings",
     "grey_from_frame",
 ]
@@ -164,6 +165,10 @@ DEFAULT_ROTATION_SETTINGS = RotationSettings()
 #: estimated (``low_quality``: mostly model ``rotation``, the rotation-only fit against the keyframe used in place
 #: of the fit in doubt; ``fast_rotation``, ``keyframe_correction`` and ``ground_step`` frames keep their own fit
 #: and model, only the claim changes) or held (model ``hold``).
+#: The models of frames that measured nothing: the orientation held, or carried on through a turn at the last
+#: measured rate (the session analysis leaves them out: walkmon.api.measured_rows).
+UNMEASURED_MODELS = ("hold", "coast")
+
 FLAG_REASONS = {
     "models_disagree": "the essential rotation strays from the rotation-only one beyond what the parallax explains",
     "planar_ambiguity": "the tracks lie on one plane whose two rotations (or the essential's) differ (held where"
@@ -175,9 +180,11 @@ FLAG_REASONS = {
     "fast_rotation": "turning faster than max_ok_rate_deg_s, or since, until the rate halved: tracking and blur degrade",
     "keyframe_correction": "a new keyframe's refinement (older keyframes, vertical lines) moved the orientation by"
     " more than 0.5 deg at once",
-    "few_inliers": "fewer inliers than min_inliers: held",
-    "implausible_step": "a frame-to-frame change above max_frame_rotation_deg: held",
-    "tracking_lost": "fewer tracked points than min_inliers: held, tracking restarts",
+    "few_inliers": "fewer inliers than min_inliers: held (in a turn carried on at the last rate, once)",
+    "implausible_step": "a frame-to-frame change above max_frame_rotation_deg: held (in a turn carried on at the"
+    " last rate, once)",
+    "tracking_lost": "fewer tracked points than min_inliers: held (in a turn carried on at the last rate, once),"
+    " tracking restarts",
     "few_features": "fewer corners than min_inliers where tracking (re)starts: held",
     "featureless": "a uniform frame (lens cap, darkness): held",
     "repeated_frame": "the frame repeats the previous one: held",
@@ -191,7 +198,9 @@ class RotationEstimate:
     ``rotation`` maps this frame's directions into the first frame's; ``angles_deg`` is (pitch, yaw, roll).
     ``model`` is ``"rotation"`` (rotation-only/homography), ``"essential"``, ``"heading"`` (essential with the
     baseline fixed along the walker's heading: noisy tracks, little parallax), ``"hold"`` (orientation held,
-    see ``status``) or ``"identity"`` (first frame). ``n_inliers`` counts matches that agree with the model,
+    see ``status``), ``"coast"`` (a frame that would be held, in a turn: the orientation carried on at the last
+    measured frame's rate) or ``"identity"`` (first frame). Neither ``hold`` nor ``coast`` measures anything
+    (:data:`UNMEASURED_MODELS`). ``n_inliers`` counts matches that agree with the model,
     ``n_tracks`` the matches tried, ``residual_px`` their median error, ``keyframe`` whether this frame became
     a keyframe. ``reason`` says why a frame is not ok (empty when it is), one of :data:`FLAG_REASONS`.
     """
