@@ -172,7 +172,7 @@ def run(d: Path, overrides: dict | None = None, readout_ms: float | None = None,
     reasons: dict[str, int] = {}
     for e in out[:n]:
         if e.status.value not in ("ok", "first_frame"):
-            key = f"{e.status.value}{'/held' if e.model == 'hold' else ''}"
+            key = f"{e.status.value}{'/held' if e.model == 'hold' else '/coasted' if e.model == 'coast' else ''}"
             statuses[key] = statuses.get(key, 0) + 1
             why = getattr(e, "reason", "") or "unstated"
             reasons[why] = reasons.get(why, 0) + 1
@@ -303,8 +303,9 @@ def main(argv: list[str] | None = None) -> int:
          "into these: a held or misestimated turn is still wrong afterwards); ok steps: RMSE over the ok frames of "
          "the error their own frame-to-frame steps accumulate from the start (angle; the flagged frames' steps "
          "left out, so what they introduced is excused, a drift carried by ok frames between flags is not). f2f: largest frame-to-frame error over the "
-         "ok frames. flagged: frames not ok, by reason (walkmon.rotation.FLAG_REASONS; /held: orientation held, "
-         "else still estimated). ok>1: ok frames whose error since the last flagged frame is above 1 deg (target "
+         "ok frames. flagged: frames not ok, by reason (walkmon.rotation.FLAG_REASONS; held: orientation held; "
+         "coasted: a frame that would be held, in a turn, carried on at the last rate; else still estimated). "
+         "ok>1: ok frames whose error since the last flagged frame is above 1 deg (target "
          "0); raw>1: ok frames whose start-relative error is above 1 deg. met: every target on every frame; met*: "
          "the flagged frames excused (ok steps <= 0.5, f2f <= 0.5, ok>1 = 0; detrended not required). frames/s CPU: "
          "decode + estimation per CPU second (one thread; inflated by the load average above, compare within a "
@@ -317,7 +318,9 @@ def main(argv: list[str] | None = None) -> int:
     for r in rows:
         why = ", ".join(f"{n} {k}" for k, n in sorted(r["flag_why"].items(), key=lambda kv: -kv[1]))
         held = sum(n for k, n in r["flag_reasons"].items() if k.endswith("/held"))
-        why = f"{r['flagged']}: {why}{f' ({held} held)' if held else ''}" if r["flagged"] else "0"
+        coasted = sum(n for k, n in r["flag_reasons"].items() if k.endswith("/coasted"))
+        how = ", ".join(f"{n} {name}" for n, name in ((held, "held"), (coasted, "coasted")) if n)
+        why = f"{r['flagged']}: {why}{f' ({how})' if how else ''}" if r["flagged"] else "0"
         lines.append(f"| {r['scenario']} | {r['seed']} | {fmt3(r['detrended_rmse_deg'])} | {fmt3(r['raw_rmse_deg'])} | "
                      f"{fmt3(r['raw_rmse_ok_deg'])} | {r['ok_steps_rmse_deg']:.3f} | "
                      f"{r['max_frame_error_deg']:.3f} | {why} | {r['ok_over_1deg']} | {r['ok_raw_over_1deg']} | "

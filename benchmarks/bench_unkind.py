@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from walkmon.commands.cli import main as walkmon_main
+from walkmon.rotation import UNMEASURED_MODELS
 from walkmon.simulate import SIMULATOR_VERSION
 from walkmon.simulate.cache import cached_simulation
 from walkmon.simulate.scoring import (
@@ -183,7 +184,7 @@ def live_replay(out_dir: Path, truth: Truth) -> dict[str, int]:
 
     x = read_table(out_dir / "angles.csv", ["t", "pitch", "yaw", "roll"])
     model = read_text_column(out_dir / "angles.csv", "model")
-    held = np.asarray(model if model is not None else [""] * len(x["t"])) == "hold"
+    held = np.isin(np.asarray(model if model is not None else [""] * len(x["t"])), UNMEASURED_MODELS)
     tt = truth.t
     act = np.asarray(truth.activity, dtype=object)
     lab = np.asarray(truth.label, dtype=object)
@@ -191,7 +192,8 @@ def live_replay(out_dir: Path, truth: Truth) -> dict[str, int]:
     alerts = AlertStage()
     out: Counter[str] = Counter()
     for t, p, y, r, h in zip(x["t"], x["pitch"], x["yaw"], x["roll"], held, strict=True):
-        # a held frame measured nothing: walkmon live gives it to the stage as such (LivePipeline._process_frame)
+        # a held (or coasted) frame measured nothing: walkmon live gives it to the stage as such
+        # (LivePipeline._process_frame)
         hop = stage.push_unmeasured(float(t)) if h else stage.push(float(t), (float(p), float(y), float(r)))
         if hop is None:
             continue
