@@ -234,3 +234,84 @@ def test_a_walkers_fast_u_turn_keeps_its_rotation_through_a_lost_frame(tmp_path_
     err = np.degrees([Rotation.from_matrix(r.T @ e).magnitude() for r, e in zip(truth, run.est, strict=True)])
     assert float(np.sqrt(np.mean(err**2))) < 1.5, err.round(2)
     assert err[-1] < 1.5, err.round(2)
+
+
+def _run(cam, frames, fps: float = FPS):
+    est = RotationEstimator(cam)
+    return [est.push(f, i / fps) for i, f in enumerate(frames)]
+
+
+def test_after_a_held_frame_the_next_unmeasurable_one_is_held_too(monkeypatch) -> None:
+    """Review: a lens cap in a turn (frames 9-13 uniform: held), then two frames whose fits are implausible. The
+    first is held (0.2 s since the last measured frame); the second was carried on at the rate from before the
+    cap, which the hold had made look one frame old. Nothing unmeasured is carried on after a hold."""
+    cam, frames, _ = _render(lambda t: 70.0 * t, n=20)
+    frames = [np.full_like(f, 128) if 9 <= i <= 13 else f for i, f in enumerate(frames)]
+    original = fast_module.FastEngine._fit
+
+    def fit(self, t_s, n):
+        out = original(self, t_s, n)
+        return _jump(out) if round(t_s * FPS) in (14, 15) else out
+
+    monkeypatch.setattr(fast_module.FastEngine, "_fit", fit)
+    out = _run(cam, frames)
+    assert [o.reason for o in out[9:14]] == ["featureless"] * 5
+    assert [out[14].model, out[15].model] == ["hold", "hold"], [(o.model, o.reason) for o in out[9:17]]
+
+
+def test_a_turn_whose_rate_just_changed_is_not_carried_on(monkeypatch) -> None:
+    """70 deg/s, then from frame 8 on 35 deg/s: the frame after the change cannot be measured; the last two rates
+    differ by more than _COAST_STEADY of the last (the turn slowing, or the last step the odd one), so it is
+    held, not carried on at either rate."""
+    cam, frames, _ = _render(lambda t: np.where(t < 7 / FPS, 70.0 * t, 70.0 * 7 / FPS + 35.0 * (t - 7 / FPS)))
+    _inject(monkeypatch, HELD_FRAME, _jump)
+    out = _run(cam, frames)
+    assert out[HELD_FRAME].reason == "implausible_step"
+    assert out[HELD_FRAME].model == "hold"
+
+
+def test_at_15_fps_a_walking_rate_is_still_no_turn(monkeypatch) -> None:
+    """20 deg/s filmed at 15 fps turns 1.33 deg a frame, above the 1 deg a frame that marks a turn at 30 fps: the
+    turn test is a rate (_COAST_MIN_RATE_DEG_S), so the unmeasurable frame is held as at 30 fps (review)."""
+    cam, frames, _ = _render(lambda t: 20.0 * 2.0 * t)  # frame i shows 20 deg/s x i / 15 s
+    original = fast_module.FastEngine._fit
+
+    def fit(self, t_s, n):
+        out = original(self, t_s, n)
+        return _jump(out) if round(t_s * 15.0) == HELD_FRAME else out
+
+    monkeypatch.setattr(fast_module.FastEngine, "_fit", fit)
+    out = _run(cam, frames, fps=15.0)
+    assert out[HELD_FRAME].reason == "implausible_step"
+    assert out[HELD_FRAME].model == "hold"
+
+
+def test_lost_tracks_in_a_turn_are_carried_on_and_tracking_restarts(monkeypatch) -> None:
+    """Every track lost in one frame of a 70 deg/s turn (``tracking_lost``): carried on at the turn's rate, and
+    the turn is measured again from that frame on."""
+    cam, frames, truth = _render(lambda t: 70.0 * t)
+    original = fast_module.FastEngine._track
+
+    def track(self, small):
+        n = original(self, small)
+        if round(self._t_s * FPS) == HELD_FRAME:
+            self._keep(np.zeros(self._pts.shape[0], bool))
+            return 0
+        return n
+
+    monkeypatch.setattr(fast_module.FastEngine, "_track", track)
+    out = _run(cam, frames)
+    assert (out[HELD_FRAME].model, out[HELD_FRAME].reason) == ("coast", "tracking_lost")
+    err = _start_relative_errors_deg(out, truth)
+    assert err[HELD_FRAME] < 0.3 and err[-1] < 0.3, err.round(2)
+
+
+def test_after_a_gap_in_the_frames_an_unmeasurable_one_is_held(monkeypatch) -> None:
+    """Frames 9-14 of a 70 deg/s turn never arrive (a stalled camera: 0.23 s without frames); frame 15's fit is
+    implausible. Over a gap longer than _COAST_MAX_S the last rate is a guess: held, not carried on."""
+    cam, frames, _ = _render(lambda t: 70.0 * t, n=20)
+    _inject(monkeypatch, 15, _jump)
+    est = RotationEstimator(cam)
+    out = {i: est.push(f, i / FPS) for i, f in enumerate(frames) if not 9 <= i <= 14}
+    assert out[15].reason == "implausible_step"
+    assert out[15].model == "hold"

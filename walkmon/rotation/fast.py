@@ -98,10 +98,13 @@ _HOLD_MAX_STEP_DEG = 2.0
 #: Tracks start Lucas-Kanade where the last frame's rotation would carry them when it exceeded this (deg).
 _PREDICT_MIN_STEP_DEG = 1.0
 #: A frame that cannot be measured (held: implausible step, few inliers, lost tracks, the ground in doubt) in a
-#: steady turn (the last two accepted frames turned by at least _PREDICT_MIN_STEP_DEG each, at rates that differ by
-#: at most _COAST_STEADY of the last) is carried on at the last rate (model "coast"), once in a row and over at
-#: most _COAST_MAX_S: a hold stopped the turn for a frame and lost its whole rotation for good (turns seeds 2 and
-#: 4, rolling_shutter seed 3: 3.2, 2.7 and 1.9 deg in one frame). See FastEngine._coast.
+#: steady turn (the last two accepted frames each turned at _COAST_MIN_RATE_DEG_S or more, at rates that differ
+#: by at most _COAST_STEADY of the last) is carried on at the last rate (model "coast"), when the last accepted
+#: frame is at most _COAST_MAX_S before it and no frame since was left unmeasured: a hold stopped the turn for a
+#: frame and lost its whole rotation for good (a walker's U-turn at 274 deg/s: 9.1 deg). The rate floor is 1 deg a
+#: frame at 30 fps (_PREDICT_MIN_STEP_DEG there) as a rate, so that a slower video does not coast a walker's sway.
+#: See FastEngine._coast.
+_COAST_MIN_RATE_DEG_S = 30.0
 _COAST_MAX_S = 0.1
 _COAST_STEADY = 0.3
 #: A frame-to-frame rotation differing from the previous one by more than this (deg) is held as implausible.
@@ -257,7 +260,7 @@ class FastEngine:
         self._last_step: NDArray[np.float64] | None = None  # the last accepted frame-to-frame rotation
         self._step_rate: NDArray[np.float64] | None = None  # its angular rate (rad/s, camera axes): see _coast
         self._step_rate_before: NDArray[np.float64] | None = None  # the accepted step's before it
-        self._coasted = False  # a held frame was carried on since the last accepted one
+        self._unmeasured = False  # a frame was held or carried on since the last accepted one (see _coast)
         # rolling shutter (camera.readout_s > 0): the angular rate of the last accepted step (rad/s, camera axes)
         # and the rate this frame's tracks are moved to the frame's time with (None: not moved); see shutter.py
         self._readout_s = camera.readout_s
@@ -613,31 +616,33 @@ class FastEngine:
               coast: bool = False) -> RotationEstimate:
         if self._vertical is not None and reason != "repeated_frame":  # the camera may move on while held
             self._vertical.add_doubt(_FLAGGED_DOUBT_DEG, t_s)
+        self._unmeasured = True  # no frame after it is carried on until one is measured again
         return make_estimate(t_s, self._orientation, n_inliers=0, model="coast" if coast else "hold", status=status,
                              n_tracks=n_tracks, reason=reason)
 
     def _coast(self, t_s: float) -> bool:
         """Carry the orientation on to ``t_s`` at the last accepted frame's rate when a frame that cannot be
-        measured comes in a steady turn (see _COAST_STEADY); True when it did.
+        measured comes in a steady turn (see _COAST_STEADY); True when it did. Called before the frame's hold.
 
         A torso does not stop turning from one frame to the next: held, the frame's whole rotation was lost for
-        good (a frame at 95 deg/s, 3.2 deg off; measured on the scenario clips' turns, 640x480, the three held
-        frames of a turn were 3.16, 2.70 and 1.88 deg off, carried on 0.48, 0.54 and 0.51). Only in a steady
-        turn: carried on at the last step's rate where that step was the odd one or the turn was ending, the frame
-        was worse than held (a steep camera's bent walk, 0.8 deg a frame: 2.2 deg off, held 0.8; a frame at 19
-        deg/s after one at 60: 1.1 deg, held 0.6). Once in a row (the next unmeasured frame is held) and over at
-        most _COAST_MAX_S: beyond that the rate is a guess. Still flagged, and like a held frame it measures
-        nothing (the gait analysis leaves both out: walkmon.rotation.UNMEASURED_MODELS)."""
+        good (a walker's U-turn, 180 deg in 1.2 s: a frame at 274 deg/s with too few inliers, 9.1 deg off held,
+        0.3 carried on; in the scenario clips' turns at 640x480, frames at 95 and 81 deg/s 3.16 and 2.70 deg off
+        held, 0.48 and 0.54 carried on). Only in a steady turn: carried on at the last step's rate where that step
+        was the odd one or the turn was ending, a frame was worse than held (a steep camera's bent walk turning at
+        24 deg/s after an odd 2-3 deg step: 2.2 deg off, held 0.8; a frame at 19 deg/s after one at 60: 1.1 deg,
+        held 0.6). Only right after a measured frame, at most _COAST_MAX_S before: after a held or carried frame,
+        a gap or a lens cap the last rate is a guess (the next unmeasured frames are held). Still flagged, and like
+        a held frame it measures nothing (the gait analysis leaves both out: walkmon.rotation.UNMEASURED_MODELS)."""
         rate, before = self._step_rate, self._step_rate_before
-        if self._coasted or rate is None or before is None or self._last_step is None or self._t_prev is None:
+        if self._unmeasured or rate is None or before is None or self._t_prev is None:
             return False
         dt = t_s - self._t_prev
-        if not 0.0 < dt <= _COAST_MAX_S or geo.rotation_angle_deg(self._last_step) < _PREDICT_MIN_STEP_DEG:
+        floor = math.radians(_COAST_MIN_RATE_DEG_S)
+        if not 0.0 < dt <= _COAST_MAX_S or min(float(np.linalg.norm(rate)), float(np.linalg.norm(before))) < floor:
             return False
         if float(np.linalg.norm(rate - before)) > _COAST_STEADY * float(np.linalg.norm(rate)):
             return False  # not a steady turn: the last step may itself be the odd one, or the turn ending
         self._orientation = self._orientation @ geo.rotation_from_rotvec(rate * dt)
-        self._coasted = True
         return True
 
     # ----------------------------------------------------------------------------------------------------------
@@ -1059,9 +1064,9 @@ class FastEngine:
         s = self.s
         self._last_step = self._orientation.T @ orientation
         dt = t_s - self._t_prev if self._t_prev is not None else 0.0
-        self._step_rate_before = None if self._coasted else self._step_rate
+        self._step_rate_before = None if self._unmeasured else self._step_rate
         self._step_rate = shutter.rate_from_step(self._last_step, dt)
-        self._coasted = False
+        self._unmeasured = False
         if self._readout_s > 0:
             self._rate = self._step_rate
         self._orientation = orientation

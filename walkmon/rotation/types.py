@@ -42,18 +42,20 @@ class EstimateStatus(enum.Enum):
     OK = "ok"
     #: The first frame (or the first after ``reset()``): identity by definition.
     FIRST_FRAME = "first_frame"
-    #: Uniform/black frame or fewer matches than the minimum: the last orientation is held.
+    #: Uniform/black frame or fewer matches than the minimum: the last orientation is held (lost tracks in a
+    #: steady turn: carried on at the last rate, model ``coast``).
     TOO_FEW_FEATURES = "too_few_features"
     #: The frame is identical to the previous one: the last orientation is held.
     REPEATED_FRAME = "repeated_frame"
-    #: A fit was made but failed its checks. Few inliers or an implausible jump: the last orientation is held.
+    #: A fit was made but failed its checks. Few inliers or an implausible jump: the last orientation is held (in
+    #: a steady turn carried on at the last rate, model ``coast``).
     #: The essential fit strayed from the rotation-only fit beyond what the parallax explains: the rotation-only
     #: fit is used (``model == "rotation"``), since holding would turn the walker's motion into a jump.
     LOW_QUALITY = "low_quality"
 
     @property
     def is_measured(self) -> bool:
-        """True when the rotation comes from the frame (not held)."""
+        """True when the rotation comes from the frame (not held, not carried on)."""
         return self in (EstimateStatus.OK, EstimateStatus.FIRST_FRAME)
 
 
@@ -164,15 +166,13 @@ DEFAULT_ROTATION_SETTINGS = RotationSettings()
 #: Why the fast method flags a frame (``RotationEstimate.reason``); the status says whether it was still
 #: estimated (``low_quality``: mostly model ``rotation``, the rotation-only fit against the keyframe used in place
 #: of the fit in doubt; ``fast_rotation``, ``keyframe_correction`` and ``ground_step`` frames keep their own fit
-#: and model, only the claim changes) or held (model ``hold``).
-#: The models of frames that measured nothing: the orientation held, or carried on through a turn at the last
-#: measured rate (the session analysis leaves them out: walkmon.api.measured_rows).
-UNMEASURED_MODELS = ("hold", "coast")
-
+#: and model, only the claim changes) or held (model ``hold``; in a steady turn carried on at the last rate,
+#: model ``coast``: :data:`UNMEASURED_MODELS`).
 FLAG_REASONS = {
     "models_disagree": "the essential rotation strays from the rotation-only one beyond what the parallax explains",
     "planar_ambiguity": "the tracks lie on one plane whose two rotations (or the essential's) differ (held where"
-    " that plane is the ground and the frame turns by less than 2 deg)",
+    " that plane is the ground and the frame turns by less than 2 deg; in a steady turn carried on at the last"
+    " rate)",
     "step_inconsistent": "the fit jumps away from the frame-to-frame tracking of the same points",
     "ground_step": "the ground plane's fit (kept) jumps away from the frame-to-frame tracking, which the near ground"
     " biases",
@@ -189,6 +189,10 @@ FLAG_REASONS = {
     "featureless": "a uniform frame (lens cap, darkness): held",
     "repeated_frame": "the frame repeats the previous one: held",
 }
+
+#: The models of frames that measured nothing: the orientation held, or carried on through a steady turn at the
+#: last measured rate (the session analysis and the live stage leave them out: walkmon.api.measured_rows).
+UNMEASURED_MODELS = ("hold", "coast")
 
 
 @dataclass(frozen=True, slots=True)
