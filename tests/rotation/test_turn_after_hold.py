@@ -173,16 +173,27 @@ def _jump(f):
     return dataclasses.replace(f, rotation=f.rotation @ Rotation.from_euler("x", 10, degrees=True).as_matrix())
 
 
+def _run(cam, frames, fps: float = FPS):
+    """Every frame through a fresh estimator, frame ``i`` at ``i / fps``."""
+    est = RotationEstimator(cam)
+    return [est.push(f, i / fps) for i, f in enumerate(frames)]
+
+
+def _steady_turn_with_one_implausible_fit(monkeypatch, rate_deg_s: float):
+    """A steady turn at ``rate_deg_s`` whose HELD_FRAME fit is implausible: the estimates and the truth."""
+    cam, frames, truth = _render(lambda t: rate_deg_s * t)
+    _inject(monkeypatch, HELD_FRAME, _jump)
+    out = _run(cam, frames)
+    assert out[HELD_FRAME].reason == "implausible_step"
+    return out, truth
+
+
 def test_a_frame_that_cannot_be_measured_in_a_turn_is_carried_on_at_the_turns_rate(monkeypatch) -> None:
     """A steady turn at 70 deg/s (2.3 deg a frame) with one frame's fit implausible: held, the frame's rotation was
-    lost for good (every later frame 2.3 deg off; the scenario clips' three held frames in turns were 3.2, 2.7 and
-    1.9 deg off); carried on at the last measured rate (model ``coast``, still flagged) it is right to the rate's
+    lost for good (every later frame 2.3 deg off; two held frames of the scenario clips' turns were 3.2 and 2.7 deg
+    off); carried on at the last measured rate (model ``coast``, still flagged) it is right to the rate's
     change, and so is the rest of the turn."""
-    cam, frames, truth = _render(lambda t: 70.0 * t)
-    _inject(monkeypatch, HELD_FRAME, _jump)
-    est = RotationEstimator(cam)
-    out = [est.push(f, i / FPS) for i, f in enumerate(frames)]
-    assert out[HELD_FRAME].reason == "implausible_step"
+    out, truth = _steady_turn_with_one_implausible_fit(monkeypatch, 70.0)
     assert out[HELD_FRAME].model == "coast"
     assert out[HELD_FRAME].status.value == "low_quality"
     err = _start_relative_errors_deg(out, truth)
@@ -202,20 +213,15 @@ def test_only_one_frame_in_a_row_is_carried_on(monkeypatch) -> None:
         return _jump(out) if round(t_s * FPS) in (HELD_FRAME, HELD_FRAME + 1) else out
 
     monkeypatch.setattr(fast_module.FastEngine, "_fit", fit)
-    est = RotationEstimator(cam)
-    out = [est.push(f, i / FPS) for i, f in enumerate(frames)]
+    out = _run(cam, frames)
     assert [out[HELD_FRAME].model, out[HELD_FRAME + 1].model] == ["coast", "hold"]
     np.testing.assert_allclose(out[HELD_FRAME + 1].rotation, out[HELD_FRAME].rotation)
 
 
 def test_at_a_walking_rate_an_unmeasurable_frame_is_held(monkeypatch) -> None:
-    """Below _PREDICT_MIN_STEP_DEG a frame (20 deg/s: 0.67 deg) a frame that cannot be measured is held, as
-    before: the walker's sway changes direction within a few frames, so its rate is no prediction."""
-    cam, frames, _ = _render(lambda t: 20.0 * t)
-    _inject(monkeypatch, HELD_FRAME, _jump)
-    est = RotationEstimator(cam)
-    out = [est.push(f, i / FPS) for i, f in enumerate(frames)]
-    assert out[HELD_FRAME].reason == "implausible_step"
+    """Below _COAST_MIN_RATE_DEG_S (20 deg/s) a frame that cannot be measured is held, as before: the walker's
+    sway changes direction within a few frames, so its rate is no prediction."""
+    out, _ = _steady_turn_with_one_implausible_fit(monkeypatch, 20.0)
     assert out[HELD_FRAME].model == "hold"
     np.testing.assert_allclose(out[HELD_FRAME].rotation, out[HELD_FRAME - 1].rotation)
 
@@ -234,11 +240,6 @@ def test_a_walkers_fast_u_turn_keeps_its_rotation_through_a_lost_frame(tmp_path_
     err = np.degrees([Rotation.from_matrix(r.T @ e).magnitude() for r, e in zip(truth, run.est, strict=True)])
     assert float(np.sqrt(np.mean(err**2))) < 1.5, err.round(2)
     assert err[-1] < 1.5, err.round(2)
-
-
-def _run(cam, frames, fps: float = FPS):
-    est = RotationEstimator(cam)
-    return [est.push(f, i / fps) for i, f in enumerate(frames)]
 
 
 def test_after_a_held_frame_the_next_unmeasurable_one_is_held_too(monkeypatch) -> None:
