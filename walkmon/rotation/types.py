@@ -55,7 +55,7 @@ class EstimateStatus(enum.Enum):
 
     @property
     def is_measured(self) -> bool:
-        """True when the rotation comes from the frame (not held, not carried on)."""
+        """True when the rotation comes from the frame (not held)."""
         return self in (EstimateStatus.OK, EstimateStatus.FIRST_FRAME)
 
 
@@ -180,11 +180,11 @@ FLAG_REASONS = {
     "fast_rotation": "turning faster than max_ok_rate_deg_s, or since, until the rate halved: tracking and blur degrade",
     "keyframe_correction": "a new keyframe's refinement (older keyframes, vertical lines) moved the orientation by"
     " more than 0.5 deg at once",
-    "few_inliers": "fewer inliers than min_inliers: held (in a turn carried on at the last rate, once)",
-    "implausible_step": "a frame-to-frame change above max_frame_rotation_deg: held (in a turn carried on at the"
-    " last rate, once)",
-    "tracking_lost": "fewer tracked points than min_inliers: held (in a turn carried on at the last rate, once),"
-    " tracking restarts",
+    "few_inliers": "fewer inliers than min_inliers: held (in a steady turn carried on at the last rate: model coast)",
+    "implausible_step": "a frame-to-frame change above max_frame_rotation_deg, or a change of turning rate no torso"
+    " makes: held (in a steady turn carried on at the last rate: model coast)",
+    "tracking_lost": "fewer tracked points than min_inliers: held (in a steady turn carried on at the last rate:"
+    " model coast), tracking restarts",
     "few_features": "fewer corners than min_inliers where tracking (re)starts: held",
     "featureless": "a uniform frame (lens cap, darkness): held",
     "repeated_frame": "the frame repeats the previous one: held",
