@@ -328,10 +328,10 @@ def _slowing_turn_deg(t):
 
 def test_a_step_over_dropped_frames_is_no_change_of_rate_and_a_hold_does_not_freeze_the_turn() -> None:
     """Frames 9-11 of a turn that slows from 45 to 5 deg/s never arrive. Frame 12's step spans the gap (4.7 deg);
-    judged against that step itself, frame 13's 0.2 deg was a change of rate (held), and judged against the rate
-    from before the hold every later frame was held too, the orientation frozen for the rest of the clip (review:
-    frames 13-44). The change of rate is judged per second, and after an unmeasured frame a turn that stopped is
-    plausible: every frame from 13 on is measured and right."""
+    judged against that step itself, frame 13's 0.2 deg was a change of rate (held), and judged against it again
+    every later frame was held too, the orientation frozen for the rest of the clip (review: frames 13-44). The
+    change of rate is judged against the last step's rate over this frame's interval: every frame from 13 on is
+    measured and right."""
     cam, frames, truth = _render(_slowing_turn_deg, n=30)
     est = RotationEstimator(cam)
     kept = [i for i in range(30) if not 9 <= i <= 11]
@@ -417,3 +417,37 @@ def test_with_a_rolling_shutter_the_keyframe_after_an_unmeasured_frame_keeps_the
     assert out[HELD_FRAME].reason == "implausible_step"
     err = _start_relative_errors_deg(out, truth)
     assert abs(err[-1] - clean[-1]) < 0.3, (err.round(2), clean.round(2))
+
+
+def test_after_a_carried_frame_a_fit_that_reads_no_rotation_in_a_fast_turn_is_held(monkeypatch) -> None:
+    """A steady 150 deg/s turn (5 deg a frame): frame 9's fit is implausible (carried on), frame 10's reads no
+    rotation at all (tracks latched one texture period on, or a duplicated frame). Accepting a turn that stopped
+    as plausible after an unmeasured frame let such fits through, reported ok, and a 180 deg/s turn ended 116 deg
+    off (review); judged against the turn's rate, the frame is held."""
+    cam, frames, _ = _render(lambda t: 150.0 * t, n=13)
+    original = fast_module.FastEngine._fit
+
+    def fit(self, t_s, n):
+        out = original(self, t_s, n)
+        frame = round(t_s * FPS)
+        if frame == 10:
+            return dataclasses.replace(out, rotation=self._R_kf.T @ self._orientation)  # no rotation since frame 9
+        return _jump(out) if frame == HELD_FRAME else out
+
+    monkeypatch.setattr(fast_module.FastEngine, "_fit", fit)
+    out = _run(cam, frames)
+    assert out[HELD_FRAME].model == "coast"
+    assert (out[10].model, out[10].reason) == ("hold", "implausible_step"), [(o.model, o.reason) for o in out[8:]]
+
+
+def test_after_a_long_gap_a_swaying_camera_is_not_judged_by_an_extrapolated_rate() -> None:
+    """A 5 deg, 1 Hz yaw sway (a walker's trunk) with frames 16-26 missing (0.37 s): extrapolating the last rate
+    over the gap predicted 12.6 deg where the camera had swung back by 2.9, and the right fit was held for good
+    (review). Across a gap the last step is the test's reference, as before: frame 27 is measured and right."""
+    cam, frames, truth = _render(lambda t: 5.0 * np.sin(2 * np.pi * np.asarray(t, dtype=float)), n=30)
+    est = RotationEstimator(cam)
+    kept = [i for i in range(30) if not 16 <= i <= 26]
+    out = {i: est.push(frames[i], i / FPS) for i in kept}
+    assert out[27].model not in ("hold", "coast"), (out[27].model, out[27].reason)
+    err = _start_relative_errors_deg([out[i] for i in kept], truth[kept])
+    assert err[-1] < 0.3, err.round(2)

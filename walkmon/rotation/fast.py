@@ -101,15 +101,15 @@ _PREDICT_MIN_STEP_DEG = 1.0
 #: steady turn (the last two accepted frames, ok or still estimated, with no unmeasured frame between or since,
 #: each turned at _COAST_MIN_RATE_DEG_S or more over at most _COAST_MAX_S, at rates that differ by at most
 #: _COAST_STEADY of the last) is carried on at the last rate (model "coast"), when the last accepted frame is at
-#: most _COAST_MAX_S before it: a hold stopped the turn for a
-#: frame and lost its whole rotation for good (a walker's U-turn at 274 deg/s: 9.1 deg). The rate floor is 1 deg a
-#: frame at 30 fps (_PREDICT_MIN_STEP_DEG there) as a rate, so that a slower video does not coast a walker's sway.
-#: See FastEngine._coast.
+#: most _COAST_MAX_S before it: a hold stopped the turn for a frame and lost its whole rotation for good (a
+#: walker's U-turn at 274 deg/s: 9.1 deg). The rate floor is 1 deg a frame at 30 fps (_PREDICT_MIN_STEP_DEG there)
+#: as a rate, so that a slower video does not coast a walker's sway. See FastEngine._coast.
 _COAST_MIN_RATE_DEG_S = 30.0
 _COAST_MAX_S = 0.1
 _COAST_STEADY = 0.3
 _COAST_DT_TOLERANCE_S = 1e-6  # frame times i / fps: 10 fps must not fall either side of _COAST_MAX_S by rounding
-#: A frame-to-frame rotation differing from the previous one by more than this (deg) is held as implausible.
+#: A frame-to-frame rotation differing by more than this (deg) from the one the last accepted step's rate predicts
+#: over this frame's interval (FastEngine._expected_step) is held as implausible.
 _MAX_STEP_CHANGE_DEG = 4.0
 #: A rolling-shutter camera's tracks are moved to the frame's time when the image's skew from the top row to the
 #: bottom one (rate x readout x focal) exceeds this (px): a fifth of the tracking noise (feature_noise_px).
@@ -623,22 +623,23 @@ class FastEngine:
         return make_estimate(t_s, self._orientation, n_inliers=0, model="coast" if coast else "hold", status=status,
                              n_tracks=n_tracks, reason=reason)
 
-    def _expected_steps(self, t_s: float) -> list[NDArray[np.float64]]:
-        """The steps this frame may plausibly make, for the test of a change of turning rate (none: no test):
-        the last accepted step's rate on over this frame's interval; right after a held or carried frame also no
-        rotation at all.
+    def _expected_step(self, t_s: float) -> NDArray[np.float64] | None:
+        """This frame's step if the camera turns on at the last accepted step's rate over this frame's interval,
+        for the test of a change of turning rate and the tracks' starting guess; None before any step.
 
-        At the last step's rate over this frame's interval, not the last step itself: a step that spanned dropped
-        frames (4.7 deg over 4 frames) made every normal step after it a change of rate. After an unmeasured
-        frame the turn may have stopped meanwhile: judged against the rate from before alone, every later frame of
-        a turn that had slowed was held for the rest of the clip (review: 32 frames in a row)."""
-        if self._last_step is None:
-            return []
-        expected = self._last_step
-        if self._t_prev is not None and self._last_dt > 0 and t_s > self._t_prev:
-            rate = shutter.rate_from_step(self._last_step, self._last_dt)
-            expected = geo.rotation_from_rotvec(rate * (t_s - self._t_prev))
-        return [expected, np.eye(3)] if self._unmeasured else [expected]
+        Scaled to this frame's interval, not the last step itself: a step that spanned dropped frames (4.7 deg over
+        4 frames) made every normal step after it a change of rate (held, and judged against it every later frame
+        of a turn that had slowed was held to the clip's end: 32 frames; review). Across a gap (this frame's
+        interval above _COAST_MAX_S) the last step as it was, as before: extrapolated, a sway at 1 Hz over 0.4 s
+        started the tracks so far off that the frame was lost (review). After a held frame the rate from before it
+        stands: accepting a turn that stopped as well let fits that read no rotation through in a fast turn (180
+        deg/s: 116 deg lost; review)."""
+        if self._last_step is None or self._t_prev is None:
+            return None
+        dt = t_s - self._t_prev
+        if self._last_dt <= 0 or not 0.0 < dt <= _COAST_MAX_S + _COAST_DT_TOLERANCE_S:
+            return self._last_step
+        return geo.rotation_from_rotvec(shutter.rate_from_step(self._last_step, self._last_dt) * dt)
 
     def _coast(self, t_s: float) -> bool:
         """Carry the orientation on to ``t_s`` at the last accepted frame's rate when a frame that cannot be
@@ -650,7 +651,7 @@ class FastEngine:
         held, 0.48 and 0.54 carried on). Only in a steady turn: carried on at the last step's rate where that step
         was the odd one or the turn was ending, a frame was worse than held (a steep camera's bent walk turning at
         24 deg/s after an odd 2-3 deg step: 2.2 deg off, held 0.8; a frame at 19 deg/s after one at 60: 1.1 deg,
-        held 0.6). Only right after a measured frame, at most _COAST_MAX_S before: after a held or carried frame,
+        held 0.6). Only right after an accepted frame, at most _COAST_MAX_S before: after a held or carried frame,
         a gap or a lens cap the last rate is a guess (the next unmeasured frames are held). Still flagged, and like
         a held frame it measures nothing (the gait analysis leaves both out: walkmon.rotation.UNMEASURED_MODELS)."""
         rate, before = self._step_rate, self._step_rate_before
@@ -692,8 +693,8 @@ class FastEngine:
         step_deg = geo.rotation_angle_deg(step)
         # a change of turning rate beyond _MAX_STEP_CHANGE_DEG in one frame is no torso's: tracks that latched
         # onto a repeated pattern (facade windows) from a wrong start moved coherently (turns seed 4: 11 deg)
-        jerk = bool(self._expected_steps(t_s)) and all(
-            geo.rotation_angle_deg(e.T @ step) > _MAX_STEP_CHANGE_DEG for e in self._expected_steps(t_s))
+        expected = self._expected_step(t_s)
+        jerk = expected is not None and geo.rotation_angle_deg(expected.T @ step) > _MAX_STEP_CHANGE_DEG
         if n_inliers < self.s.min_inliers or step_deg > self.s.max_frame_rotation_deg or jerk or fit.hold:
             coast = self._coast(t_s)
             self._restart_held(small, t_s)
@@ -853,13 +854,14 @@ class FastEngine:
         return ref, ok & st.ravel().astype(bool)
 
     def _predicted_positions(self) -> NDArray[np.float32] | None:
-        """Where the tracks land if the camera keeps turning as it did over the last frame (tracking pixels), as
-        the starting guess of Lucas-Kanade; None below _PREDICT_MIN_STEP_DEG (the common path: no change).
+        """Where the tracks land if the camera keeps turning at the last accepted step's rate over this frame's
+        interval (:meth:`_expected_step`; tracking pixels), as the starting guess of Lucas-Kanade; None below
+        _PREDICT_MIN_STEP_DEG (the common path: no change).
 
         In a turn at 180 deg/s a corner moves ~24 tracking pixels a frame, more than a 9 px window over two
         pyramid levels recovers from a zero guess: tracks went wrong, inliers fell to none and the orientation
         was held while the camera turned on (turns seed 1: 6 deg a frame for 12 frames)."""
-        step = self._last_step
+        step = self._expected_step(self._t_s)
         if step is None or geo.rotation_angle_deg(step) < _PREDICT_MIN_STEP_DEG or self._q_prev.shape[0] == 0:
             return None
         if self._q_prev.shape[0] != self._pts.shape[0]:
