@@ -108,6 +108,13 @@ _COAST_MIN_RATE_DEG_S = 30.0
 _COAST_MAX_S = 0.1
 _COAST_STEADY = 0.3
 _COAST_DT_TOLERANCE_S = 1e-6  # frame times i / fps: 10 fps must not fall either side of _COAST_MAX_S by rounding
+
+
+def _no_gap(dt_s: float) -> bool:
+    """A frame interval a rate may be measured over or carried across (0 < dt <= _COAST_MAX_S)."""
+    return 0.0 < dt_s <= _COAST_MAX_S + _COAST_DT_TOLERANCE_S
+
+
 #: A frame-to-frame rotation differing by more than this (deg) from the one the last accepted step's rate predicts
 #: over this frame's interval (FastEngine._expected_step) is held as implausible.
 _MAX_STEP_CHANGE_DEG = 4.0
@@ -260,12 +267,13 @@ class FastEngine:
         self._travel: NDArray[np.float64] | None = None
         self._t_prev: float | None = None
         self._last_step: NDArray[np.float64] | None = None  # the last accepted frame-to-frame rotation
-        self._step_rate: NDArray[np.float64] | None = None  # its angular rate (rad/s, camera axes): see _coast
-        self._step_rate_before: NDArray[np.float64] | None = None  # the accepted step's before it
-        self._last_dt = 0.0  # the last accepted step's interval (s)
+        self._last_dt = 0.0  # its interval (s); its rate is self._rate
+        # the rate of the accepted step before it, for _coast: None across an unmeasured frame or a gap
+        self._rate_before: NDArray[np.float64] | None = None
         self._unmeasured = False  # a frame was held or carried on since the last accepted one (see _coast)
-        # rolling shutter (camera.readout_s > 0): the angular rate of the last accepted step (rad/s, camera axes)
-        # and the rate this frame's tracks are moved to the frame's time with (None: not moved); see shutter.py
+        # the angular rate of the last accepted step (rad/s, camera axes: a rolling shutter's correction, the
+        # tracks' guess, _coast) and the rate this frame's tracks are moved to the frame's time with (rolling
+        # shutter only, camera.readout_s > 0; None: not moved); see shutter.py
         self._readout_s = camera.readout_s
         self._rate: NDArray[np.float64] | None = None
         self._frame_rate: NDArray[np.float64] | None = None
@@ -637,9 +645,9 @@ class FastEngine:
         if self._last_step is None or self._t_prev is None:
             return None
         dt = t_s - self._t_prev
-        if self._last_dt <= 0 or not 0.0 < dt <= _COAST_MAX_S + _COAST_DT_TOLERANCE_S:
+        if self._rate is None or self._last_dt <= 0 or not _no_gap(dt):
             return self._last_step
-        return geo.rotation_from_rotvec(shutter.rate_from_step(self._last_step, self._last_dt) * dt)
+        return geo.rotation_from_rotvec(self._rate * dt)
 
     def _coast(self, t_s: float) -> bool:
         """Carry the orientation on to ``t_s`` at the last accepted frame's rate when a frame that cannot be
@@ -654,13 +662,14 @@ class FastEngine:
         held 0.6). Only right after an accepted frame, at most _COAST_MAX_S before: after a held or carried frame,
         a gap or a lens cap the last rate is a guess (the next unmeasured frames are held). Still flagged, and like
         a held frame it measures nothing (the gait analysis leaves both out: walkmon.rotation.UNMEASURED_MODELS)."""
-        rate, before = self._step_rate, self._step_rate_before
-        if self._unmeasured or rate is None or before is None or self._t_prev is None:
+        rate, before = self._rate, self._rate_before
+        if (self._unmeasured or rate is None or before is None or self._t_prev is None
+                or not _no_gap(self._last_dt)):
             return False
         dt = t_s - self._t_prev
         floor = math.radians(_COAST_MIN_RATE_DEG_S)
         slowest = min(float(np.linalg.norm(rate)), float(np.linalg.norm(before)))
-        if not 0.0 < dt <= _COAST_MAX_S + _COAST_DT_TOLERANCE_S or slowest < floor:
+        if not _no_gap(dt) or slowest < floor:
             return False
         if float(np.linalg.norm(rate - before)) > _COAST_STEADY * float(np.linalg.norm(rate)):
             return False  # not a steady turn: the last step may itself be the odd one, or the turn ending
@@ -1094,12 +1103,10 @@ class FastEngine:
         s = self.s
         self._last_step = self._orientation.T @ orientation
         dt = t_s - self._t_prev if self._t_prev is not None else 0.0
-        rate = shutter.rate_from_step(self._last_step, dt)
-        if self._readout_s > 0:
-            self._rate = rate
         # the rates a frame may be carried on at (_coast): none measured over a gap or across an unmeasured frame
-        self._step_rate_before = None if self._unmeasured else self._step_rate
-        self._step_rate = rate if 0.0 < dt <= _COAST_MAX_S + _COAST_DT_TOLERANCE_S else None
+        usable = self._rate is not None and not self._unmeasured and _no_gap(self._last_dt)
+        self._rate_before = self._rate if usable else None
+        self._rate = shutter.rate_from_step(self._last_step, dt)
         self._last_dt = dt
         self._unmeasured = False
         self._orientation = orientation
