@@ -46,6 +46,23 @@ def test_walk_without_standing_start_with_pause_and_turns(synthetic_imu) -> None
     assert act.tolist() == ["walking", "turning", "walking", "standing", "turning"]
 
 
+@pytest.mark.parametrize(("walk", "seed"), [("right_foot_drag", 1), ("bend", 3), ("normal", 1)])
+def test_no_step_is_found_while_the_wearer_stands_in_a_pause(walk: str, seed: int) -> None:
+    """The simulator's unkind sessions (IMU only): where the wearer stands still in a pause, half a second or more
+    from its ends, no step is found. Each of these three sessions had one there (mid-pause, 1-2 s from the steps
+    about it): the band-pass about the step frequency rang over the quiet trunk, and the stride of 2-3 s the
+    'step' made counted in the bout's cadence (a bout 1.9 % slow)."""
+    from walkmon.simulate.gait import GaitModel
+    from walkmon.simulate.imu import simulate_imu
+    from walkmon.simulate.unkind import unkind_script
+
+    model = GaitModel(unkind_script(seed, walk), seed=seed, stand_s=0.0)
+    imu = simulate_imu(model)
+    found = segment(signals_from_imu(imu.t_s, imu.accelerometer_mps2, imu.gyroscope_rps)).steps_s
+    still = [(p.start_s + 0.5, p.end_s - 0.5) for p in model.pieces if p.activity == "standing"]
+    assert [float(t) for t in found if any(a <= t <= b for a, b in still)] == []
+
+
 @pytest.mark.xfail(strict=True, reason=(
     "not met: -2.1 %. The step detector finds a weak 'step' (0.37 x a step's amplitude) at each side of the 2 s "
     "stop, where the band-pass rings after the last step and before the first: the stop's 2.65 s interval reads "
@@ -1017,6 +1034,15 @@ def test_a_pace_change_ratio_that_cannot_split_is_refused(ratio: float) -> None:
 
     with pytest.raises(InvalidInputError, match="pace_change_ratio"):
         ActivitySettings(pace_change_ratio=ratio)
+
+
+@pytest.mark.parametrize(("fraction", "window"), [(1.0, 4), (-0.1, 4), (float("nan"), 4), (0.1, 0)])
+def test_a_ringing_bound_that_would_drop_every_step_or_none_defined_is_refused(fraction: float, window: int) -> None:
+    from walkmon.errors import InvalidInputError
+    from walkmon.gait.activity import ActivitySettings
+
+    with pytest.raises(InvalidInputError, match="ringing_fraction"):
+        ActivitySettings(ringing_fraction=fraction, ringing_window_steps=window)
 
 
 @pytest.mark.parametrize("gap_s", [2.0, 5.0])

@@ -22,7 +22,9 @@ Processing (:func:`segment`):
    window's lag longer than any step (``step_period_s``) is a stride and is halved into the step range before
    the region takes its rhythm (the camera's pitch may repeat per stride: :func:`_is_stride` decides there).
    The vertical acceleration peaks just after each heel strike,
-   so the maxima lag the initial contacts by a nearly constant delay: cadence and bouts are unaffected.
+   so the maxima lag the initial contacts by a nearly constant delay: cadence and bouts are unaffected. A maximum
+   where the acceleration itself hardly moves is the band-pass ringing beside a stop, not a step
+   (``ringing_fraction``; :func:`_without_ringing`).
 3. **Walking bouts** (Mobilise-D convention, Kluge et al. 2021, PLoS ONE 16(8) e0256541 and the mobgap
    ``WbAssembly`` defaults): steps closer than ``max_break_s`` = 3 s belong to one bout (a shorter pause
    joins the bouts around it); a bout needs ``min_steps`` = 4 steps (two strides). A bout runs from its first
@@ -136,6 +138,10 @@ class ActivitySettings:
     still_rms_deg: float = 0.15  # degrees
     still_gyro_deg_s: float = 10.0  # RMS angular rate
     weak_step_fraction: float = 0.3  # edge steps weaker than this x the bout's median amplitude are not steps
+    # trunk acceleration: a 'step' whose acceleration spans less than this x its neighbours' (ringing_window_steps
+    # either side) is the band-pass ringing beside a stop, not a heel strike (see :func:`_without_ringing`)
+    ringing_fraction: float = 0.1
+    ringing_window_steps: int = 4
     edge_steps: int = 2  # steps of gait initiation / termination at each end of a bout (not steady walking)
     turn_margin_s: float = 0.5  # steps this close to a turn are turn entry / exit (not steady walking)
     # camera angles only: a bout's edges are searched again for the steps of gait initiation / termination that
@@ -182,6 +188,10 @@ class ActivitySettings:
             raise InvalidInputError(msg)
         if int(self.min_steps) < 2:
             msg = f"min_steps must be >= 2, got {self.min_steps}"
+            raise InvalidInputError(msg)
+        if not 0.0 <= self.ringing_fraction < 1.0 or int(self.ringing_window_steps) < 1:
+            msg = (f"ringing_fraction must be in [0, 1) (0: every maximum kept) and ringing_window_steps >= 1, got "
+                   f"{self.ringing_fraction}, {self.ringing_window_steps}")
             raise InvalidInputError(msg)
 
 
@@ -745,7 +755,36 @@ def _detect(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray[np.float64]
     if st.size > 1:
         keep = np.concatenate([[True], np.diff(st) >= s.step_period_s[0]])
         st = st[keep]
+    if sig.kind != "angles":
+        st = _without_ringing(st, sig, s)
     return st, tc, gait
+
+
+def _without_ringing(st: NDArray[np.float64], sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.float64]:
+    """Trunk acceleration: the steps ``st`` without the maxima the band-pass makes where nothing happened.
+
+    The step signal is band-passed about the region's step frequency before its maxima are taken, and a
+    band-pass rings: after the last step before a stop and before the first one after it, the filtered signal
+    swings on for a cycle over a trunk that is already (or still) quiet, and that swing is taken for a step.
+    Beside a 2-3 s stop such a 'step' makes strides of 2-3 s that count in the bout's cadence (Mobilise-D keeps
+    strides up to 3 s), and beside a stop of 3-3.5 s it bridges two bouts. A heel strike moves the acceleration
+    itself: a step is kept when the acceleration (low-passed at 8 Hz, not band-passed) spans, within 0.15 s of
+    it, at least ``ringing_fraction`` of the median span of the ``ringing_window_steps`` steps either side.
+    Measured before the bound was set (steps judged against the truth within 0.25 s): on the simulator's unkind
+    sessions, seeds 1-5, 1665 true steps spanned 0.20 of their neighbours' or more and 7 of the 10 false ones
+    less than 0.1 (3 on a trunk standing still); on the real daily-living courses of Mobilise-D (both
+    participants), every detected step that matched an INDIP contact spanned 0.17 or more. The bound is a round
+    number below both, not fitted between them."""
+    if st.size < 3:
+        return st
+    x = _butter(sig.step, s.rate_hz, 8.0, "low")
+    i = np.clip(np.searchsorted(sig.t_s, st), 0, x.size - 1)
+    w = max(1, int(round(0.15 * s.rate_hz)))
+    span = np.array([np.ptp(x[max(0, k - w) : k + w + 1]) for k in i])
+    h = max(1, int(s.ringing_window_steps))
+    pad = np.r_[np.full(h, np.nan), span, np.full(h, np.nan)]
+    ref = np.nanmedian(np.lib.stride_tricks.sliding_window_view(pad, 2 * h + 1), axis=1)
+    return st[~(span < s.ringing_fraction * ref)]
 
 
 def bouts_from_steps(
