@@ -772,11 +772,11 @@ def _without_ringing(st: NDArray[np.float64], sig: TrunkSignals, s: ActivitySett
     strides up to 3 s), and beside a stop of 3-3.5 s it bridges two bouts. A heel strike moves the acceleration
     itself: a step is kept when the acceleration (low-passed at 8 Hz, not band-passed) spans, within 0.15 s of
     it, at least ``ringing_fraction`` of the median span of itself and the ``ringing_window_steps`` steps either side.
-    Measured before the bound was set (steps judged against the truth within 0.25 s): on the simulator's unkind
-    sessions, seeds 1-5, 1665 true steps spanned 0.20 of their neighbours' or more and 7 of the 10 false ones
-    less than 0.1 (3 on a trunk standing still); on the real daily-living courses of Mobilise-D (both
-    participants), every detected step that matched an INDIP contact spanned 0.17 or more. The bound is a round
-    number below both, not fitted between them."""
+    Measured before the bound was set, against the median span of the step's bout (steps judged against the truth
+    within 0.25 s): on the simulator's unkind sessions, seeds 1-5, all 1665 true steps spanned 0.20 of it or more
+    and 7 of the 10 false ones less than 0.1 (3 on a trunk standing still); on the real daily-living courses of
+    Mobilise-D (both participants), every detected step that matched an INDIP contact spanned 0.17 or more. The
+    bound is a round number below both, not fitted between them."""
     if st.size < 3:
         return st
     x = _butter(sig.step, s.rate_hz, 8.0, "low")
