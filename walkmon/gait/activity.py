@@ -780,15 +780,23 @@ def _without_ringing(st: NDArray[np.float64], sig: TrunkSignals, s: ActivitySett
     if st.size < 3:
         return st
     x = _butter(sig.step, s.rate_hz, 8.0, "low")
-    i = np.clip(np.searchsorted(sig.t_s, st), 0, x.size - 1)
-    w = max(1, int(round(0.15 * s.rate_hz)))
-    span = np.array([np.ptp(x[max(0, k - w) : k + w + 1]) for k in i])
-    h = max(1, int(s.ringing_window_steps))
-    pad = np.r_[np.full(h, np.nan), span, np.full(h, np.nan)]
+    span = _ptp_about(x, np.clip(np.searchsorted(sig.t_s, st), 0, x.size - 1), max(1, int(round(0.15 * s.rate_hz))))
     # the step judged is in its own median: a conservative reference (left out, the median of the neighbours
     # alone took a step of a bout on the real HA/002 course from the accelerometer alone: cadence -0.1 -> -4.0 %)
-    ref = np.nanmedian(np.lib.stride_tricks.sliding_window_view(pad, 2 * h + 1), axis=1)
+    ref = _window_median(span, max(1, int(s.ringing_window_steps)))
     return st[~(span < s.ringing_fraction * ref)]
+
+
+def _ptp_about(x: NDArray[np.float64], idx: NDArray[np.intp], w: int) -> NDArray[np.float64]:
+    """Peak-to-peak of ``x`` over the ``w`` samples either side of each index in ``idx`` (truncated at the
+    ends; NaN for an index beyond ``x``)."""
+    return np.array([np.ptp(x[max(0, k - w) : min(x.size, k + w + 1)]) if k < x.size else np.nan for k in idx])
+
+
+def _window_median(x: NDArray[np.float64], half: int) -> NDArray[np.float64]:
+    """The median of each element and the ``half`` elements either side of it (fewer at the ends)."""
+    pad = np.r_[np.full(half, np.nan), x, np.full(half, np.nan)]
+    return np.asarray(np.nanmedian(np.lib.stride_tricks.sliding_window_view(pad, 2 * half + 1), axis=1), dtype=float)
 
 
 def bouts_from_steps(
@@ -855,9 +863,7 @@ def _step_amplitudes(st: NDArray[np.float64], sig: TrunkSignals | None, s: Activ
     if sig is None or st.size == 0:
         return np.full(st.shape, np.nan)
     x = _butter(sig.step, s.rate_hz, (0.4, 4.0), "band")
-    i = np.searchsorted(sig.t_s, st)
-    w = int(round(0.3 * s.rate_hz))
-    return np.array([np.ptp(x[max(0, k - w) : min(x.size, k + w + 1)]) if k < x.size else np.nan for k in i])
+    return _ptp_about(x, np.searchsorted(sig.t_s, st), int(round(0.3 * s.rate_hz)))
 
 
 def _without_handled_edges(
@@ -1136,9 +1142,7 @@ def _local_median(x: NDArray[np.float64], half: int, within: float) -> NDArray[n
     whole = float(np.median(x))
     if x.size <= 2 * half + 1:
         return np.full(x.size, whole)
-    pad = np.r_[np.full(half, np.nan), x, np.full(half, np.nan)]
-    local = np.nanmedian(np.lib.stride_tricks.sliding_window_view(pad, 2 * half + 1), axis=1)
-    return np.clip(local, whole / within, whole * within)
+    return np.clip(_window_median(x, half), whole / within, whole * within)
 
 
 def cadence_from_steps(
