@@ -384,20 +384,18 @@ def status_summary(estimates: Sequence[RotationEstimate]) -> str:
     from walkmon.rotation.types import UNMEASURED_MODELS  # noqa: PLC0415
 
     n_ok = sum(e.status.is_measured for e in estimates)
-    estimated = Counter(e.status.value for e in estimates
-                        if not e.status.is_measured and e.model not in UNMEASURED_MODELS)
-    held = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model == "hold")
-    coasted = Counter(e.status.value for e in estimates if not e.status.is_measured and e.model == "coast")
+    flagged = [e for e in estimates if not e.status.is_measured]
+    estimated = [e for e in flagged if e.model not in UNMEASURED_MODELS]
     parts = [f"{n_ok} ok"] if n_ok else []
-    for status, n in sorted(estimated.items()):
-        given = Counter(e.reason for e in estimates
-                        if e.status.value == status and e.model not in UNMEASURED_MODELS and not e.status.is_measured)
+    for status, n in sorted(Counter(e.status.value for e in estimated).items()):
+        given = Counter(e.reason for e in estimated if e.status.value == status)
         if set(given) == {""}:  # no reason given (the paper method): the fast method's old label
             parts.append(f"{n} {status}{' (rotation-only)' if status == 'low_quality' else ''}")
         else:
             reasons = ", ".join(f"{k} {r or 'unstated'}" for r, k in given.most_common())
             parts.append(f"{n} {status} ({reasons})")
-    for name, group in (("held", held), ("coasted", coasted)):
+    for name, model in (("held", "hold"), ("coasted", "coast")):
+        group = Counter(e.status.value for e in flagged if e.model == model)
         if group:
             why = ", ".join(status if len(group) == 1 else f"{n} {status}" for status, n in sorted(group.items()))
             parts.append(f"{sum(group.values())} {name} ({why})")
