@@ -55,8 +55,9 @@ Processing (:func:`segment`):
    (:func:`_without_handled_edges`); inside a bout the stretch is a pause (shorter than ``max_break_s`` it joins, as
    above).
 7. **Timeline** at ``hop_s``: ``turning`` inside turns, ``walking`` inside bouts, ``standing`` where the trunk
-   is still (step-signal RMS and, with a gyro, angular rate below the standing limits) and ``unknown``
-   otherwise (moving without a gait rhythm: sitting down, bending, handling the camera) and where handled.
+   is still (step-signal RMS, or the raw signal's spread, and, with a gyro, angular rate below the standing
+   limits; :func:`_still_samples`) and ``unknown`` otherwise (moving without a gait rhythm: sitting down,
+   bending, handling the camera) and where handled.
 
 Thresholds were chosen on one healthy participant's recordings (Mobilise-D lab example HA/002) and checked,
 unchanged, on the others (the MS participant and the Oxford neck-pouch sessions): ``benchmarks/bench_real_gait.py``.
@@ -98,6 +99,7 @@ __all__ = [
 ACTIVITIES = ("standing", "walking", "turning", "unknown")
 
 G = 9.80665
+STILL_WINDOW_S = 1.0  # the standing test's window (:func:`_still_samples`), s
 
 
 @dataclass(frozen=True, slots=True)
@@ -224,6 +226,10 @@ class TrunkSignals:
     gap: NDArray[np.bool_] | None = None
     #: the gaps themselves, ``(last sample before, first sample after)``
     gaps_s: tuple[tuple[float, float], ...] = ()
+    #: how far the measurement itself spreads within ``STILL_WINDOW_S`` about each sample, unfiltered (the
+    #: acceleration vector in m/s², or a camera's pitch and roll in degrees), for the standing test
+    #: (:func:`_still_samples`); None: not measured
+    spread: NDArray[np.float64] | None = None
 
     @property
     def rate_hz(self) -> float:
@@ -430,7 +436,8 @@ def signals_from_imu(
     tilt = np.degrees(np.column_stack([np.arcsin(np.clip(up[:, 2], -1, 1)), np.arcsin(np.clip(up[:, 0], -1, 1))]))
     change = tilt_change_deg(acc_u, None if gyr is None else gyr_u, fs, settings.reorient_window_s)
     return TrunkSignals(grid, vertical, heading, "imu" if gyr is not None else "acc", gnorm, tilt,
-                        tilt_change_deg=change, **_gap_fields(t, grid, settings))
+                        tilt_change_deg=change, spread=_window_range(acc_u, fs, STILL_WINDOW_S),
+                        **_gap_fields(t, grid, settings))
 
 
 def _window_range(x: NDArray[np.float64], fs: float, window_s: float) -> NDArray[np.float64]:
@@ -496,7 +503,8 @@ def signals_from_angles(
                             for x in smooth])
     change = _window_range(tilt, settings.rate_hz, settings.reorient_window_s)
     return TrunkSignals(grid, step, heading, "angles", rate, None, a_u[:, 0].copy(), tilt_change_deg=change,
-                        sway_deg=a_u[:, 1:3].copy(), **_gap_fields(t, grid, settings))
+                        sway_deg=a_u[:, 1:3].copy(), spread=_window_range(tilt, settings.rate_hz, STILL_WINDOW_S),
+                        **_gap_fields(t, grid, settings))
 
 
 def _gap_fields(t: NDArray[np.float64], grid: NDArray[np.float64], s: ActivitySettings) -> dict[str, Any]:
@@ -1000,12 +1008,23 @@ def _running_rms(x: ArrayLike, half: int) -> NDArray[np.float64]:
 
 def _still_samples(sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.bool_]:
     """The trunk still about each sample of ``sig`` (the timeline's standing test, :func:`segment`): the
-    gait-band RMS of the step signal over 1 s below the source's still limit and, with a gyro or angles, the RMS
-    angular rate below ``still_gyro_deg_s``."""
+    gait-band RMS of the step signal over ``STILL_WINDOW_S`` below the source's still limit, or the measurement
+    itself spreading less than a sinusoid of that RMS does (2 sqrt 2 x the limit, peak to peak) there; and, with
+    a gyro or angles, the RMS angular rate below ``still_gyro_deg_s``.
+
+    The spread rescues what the filters make up: for a second or more after the trunk stops moving (stands up,
+    sits down, puts a camera back), the step signal (about its running median, or about gravity's low-passed
+    direction) and its band-pass ring on over a trunk that stands still, and that read as ``unknown``. With the
+    spread, the simulated unkind sessions' activity per second: 96.8 -> 97.5 % right from the IMU, 94.8 -> 95.2 %
+    from the video (seeds 1-5; held out, 6-10: 97.0 -> 97.5 %, 94.96 -> 95.3 %); the real recordings' timelines
+    (Mobilise-D) unchanged. Only a spread that small: a walking trunk spreads far more, a still one far less."""
     fs = s.rate_hz
     x = _butter(sig.step, fs, (0.4, 4.0), "band")
-    half = int(0.5 * fs)
-    still = _running_rms(x, half) < (s.still_rms_deg if sig.kind == "angles" else s.still_rms_acc)
+    half = int(0.5 * STILL_WINDOW_S * fs)
+    limit = s.still_rms_deg if sig.kind == "angles" else s.still_rms_acc
+    still = _running_rms(x, half) < limit
+    if sig.spread is not None:
+        still |= sig.spread < 2.0 * math.sqrt(2.0) * limit
     if sig.gyro_norm_deg_s is not None:
         still &= _running_rms(sig.gyro_norm_deg_s, half) < s.still_gyro_deg_s
     return np.asarray(still, dtype=bool)
