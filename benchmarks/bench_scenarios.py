@@ -94,10 +94,12 @@ def camera_readout_s(d: Path, readout_ms: float | None) -> float:
     return float(meta.get("render", {}).get("rolling_shutter_s", 0.0))
 
 
-def fused_rotations(d: Path, out: list, seconds: float) -> np.ndarray:
+def fused_rotations(d: Path, out: list, seconds: float, gyro_calibrated: bool = False) -> np.ndarray:
     """The camera's own IMU (the clip's motion through walkmon.simulate's IMU model: a real part's scale,
     misalignment, bias walk and noise; on the video's clock, camera axes) fused with the frames' estimates as
-    ``walkmon analyze VIDEO --imu`` fuses them: the fused start-relative rotation per frame."""
+    ``walkmon analyze VIDEO --imu`` fuses them: the fused start-relative rotation per frame.
+    ``gyro_calibrated``: the same IMU without its gyroscope's scale and misalignment errors (every other error
+    drawn as before), as if they had been calibrated out: what those two errors cost the fused figures."""
     from walkmon.imu.recordings import ImuRecording, fused_columns  # noqa: PLC0415
     from walkmon.simulate.scenarios import ScenarioSession  # noqa: PLC0415
 
@@ -108,6 +110,9 @@ def fused_rotations(d: Path, out: list, seconds: float) -> np.ndarray:
     if not np.allclose(session.truth()["yaw"][: len(truth["yaw"])], truth["yaw"], atol=1e-5):
         msg = f"{d}: the session rebuilt for its IMU is not the clip's (truth.csv differs)"
         raise RuntimeError(msg)
+    if gyro_calibrated:
+        session.imu_settings = dataclasses.replace(session.imu_settings, gyroscope_scale_std=0.0,
+                                                   gyroscope_misalignment_std_rad=0.0)
     imu = session.imu()
     rec = ImuRecording(imu.t_s.copy(), imu.gyroscope_rps.copy(), imu.accelerometer_mps2.copy())
     ft = np.array([e.t_s for e in out])
@@ -118,9 +123,9 @@ def fused_rotations(d: Path, out: list, seconds: float) -> np.ndarray:
 
 
 def run(d: Path, overrides: dict | None = None, readout_ms: float | None = None,
-        fused_seconds: float | None = None) -> tuple[dict, float]:
+        fused_seconds: float | None = None, gyro_calibrated: bool = False) -> tuple[dict, float]:
     """The clip's metrics: the fast estimator's, or with ``fused_seconds`` (the clip's length) its estimates fused
-    with the camera's own simulated IMU (:func:`fused_rotations`)."""
+    with the camera's own simulated IMU (:func:`fused_rotations`, ``gyro_calibrated`` as there)."""
     cam = dataclasses.replace(read_camera_yaml(d / "camera.yaml"), readout_s=camera_readout_s(d, readout_ms))
     est = RotationEstimator(cam, RotationSettings(**(overrides or {})))
     out = []
@@ -129,7 +134,7 @@ def run(d: Path, overrides: dict | None = None, readout_ms: float | None = None,
         for t, frame in video:
             out.append(est.push(frame, t))
     if fused_seconds is not None:  # the fused output is claimed for every frame: no frame is flagged
-        Rf = fused_rotations(d, out, fused_seconds)
+        Rf = fused_rotations(d, out, fused_seconds, gyro_calibrated)
         out = [dataclasses.replace(e, rotation=R, angles_deg=angles_deg_from_rotation(R[None])[0],
                                    status=type(e.status)("ok"), reason="") for e, R in zip(out, Rf, strict=True)]
     cpu = time.process_time() - c0
@@ -247,7 +252,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="RotationSettings overrides")
     ap.add_argument("--fused", action="store_true",
                     help="score the estimates fused with the camera's own simulated IMU (results: scenarios-fused)")
+    ap.add_argument("--gyro-calibrated", action="store_true",
+                    help="with --fused: that IMU without its gyroscope's scale and misalignment errors, as if "
+                         "calibrated (results: scenarios-fused-gyro-calibrated)")
     args = ap.parse_args(argv)
+    if args.gyro_calibrated and not args.fused:
+        ap.error("--gyro-calibrated needs --fused")
     overrides = {k: type(getattr(RotationSettings(), k))(v) for k, v in (kv.split("=", 1) for kv in args.set)}
     cv2.setNumThreads(1)
     size = tuple(int(v) for v in args.size.lower().split("x"))
@@ -262,7 +272,7 @@ def main(argv: list[str] | None = None) -> int:
             d = clip(sc, seed, args.seconds, size, cache)  # type: ignore[arg-type]
             if args.render_only:
                 continue
-            r, fps = run(d, overrides, args.readout_ms, args.seconds if args.fused else None)
+            r, fps = run(d, overrides, args.readout_ms, args.seconds if args.fused else None, args.gyro_calibrated)
             r.update(scenario=sc, seed=seed, fps_cpu=round(fps, 1), meets=meets(r), meets_flagged=meets_flagged(r),
                      readout_ms=round(1000 * camera_readout_s(d, args.readout_ms), 3))
             rows.append(r)
@@ -272,7 +282,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.render_only:
         return 0
     base = args.out or str(RESULTS / (("scenarios" if args.size == "640x480" else f"scenarios-{args.size}")
-                                      + ("-fused" if args.fused else "")))
+                                      + ("-fused" if args.fused else "")
+                                      + ("-gyro-calibrated" if args.gyro_calibrated else "")))
     note = ""
     if args.merge and Path(base + ".json").is_file():
         kept = [r for r in json.loads(Path(base + ".json").read_text(encoding="utf-8"))["rows"]
@@ -296,7 +307,10 @@ def main(argv: list[str] | None = None) -> int:
             "part's errors: scale 0.5 %, misalignment 0.005 rad, bias walk, noise, footstep vibration; camera axes, "
             "the video's clock). The fused output is claimed for every frame: nothing is flagged (met* then differs "
             "from met only in not asking the detrended target)."
-            if args.fused else "")),
+            if args.fused else "")
+         + (" **Gyroscope calibrated**: the same IMU without its gyroscope's scale and misalignment errors (every "
+            "other error drawn as in the fused table), as if they had been calibrated out: what those two errors "
+            "cost the fused figures." if args.gyro_calibrated else "")),
         "",
         ("Degrees, pitch/yaw/roll, against truth.csv relative to the first frame. raw: RMSE over every frame; "
          "raw ok: over the frames reported ok only (a flagged stretch's error that stays in the orientation leaks "
