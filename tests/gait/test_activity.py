@@ -63,13 +63,13 @@ def test_no_step_is_found_while_the_wearer_stands_in_a_pause(walk: str, seed: in
     assert [float(t) for t in found if any(a <= t <= b for a, b in still)] == []
 
 
-@pytest.mark.parametrize(("walk", "seed"), [("normal", 4), ("left_shoulder_down", 9), ("bend", 4)])
+@pytest.mark.parametrize(("walk", "seed"), [("normal", 6), ("left_shoulder_down", 9), ("bend", 9)])
 def test_the_wearer_standing_still_beside_sitting_or_handling_is_standing(walk: str, seed: int) -> None:
-    """The simulator's unkind sessions, from the IMU and from the trunk's true angles (what a camera would
-    measure): where the wearer stands still just before or after sitting down, picking something up or handling
-    the camera (half a second or more from the standing's ends), the timeline says ``standing``. In each of these
-    sessions a quarter or less of that time was: the step signal and its band-pass rang on after the movement
-    over a trunk already still, and the second read ``unknown``."""
+    """The simulator's unkind sessions, from the IMU, its accelerometer alone and the trunk's true angles (what a
+    camera would measure): where the wearer stands still just before or after sitting down, picking something up
+    or handling the camera (half a second or more from the standing's ends), the timeline says ``standing`` at
+    least 90 % of the time. Before the raw spread counted, 62-83 % of it did from one input or more in each of
+    these sessions: the step signal and its band-pass rang on after the movement over a trunk already still."""
     from walkmon.simulate.gait import GaitModel
     from walkmon.simulate.imu import simulate_imu
     from walkmon.simulate.unkind import unkind_script
@@ -78,11 +78,12 @@ def test_the_wearer_standing_still_beside_sitting_or_handling_is_standing(walk: 
     pieces = model.pieces
     beside = [b if a.activity == "unknown" else a for a, b in zip(pieces[:-1], pieces[1:], strict=True)
               if {a.activity, b.activity} == {"unknown", "standing"}]
-    t = np.concatenate([np.arange(p.start_s + 0.5, p.end_s - 0.5, 0.1) for p in beside])
-    assert t.size
+    t = np.concatenate([np.arange(p.start_s + 0.5, p.end_s - 0.5, 0.02) for p in beside])
+    assert t.size >= 20
     imu = simulate_imu(model)
     tt = np.arange(0.0, model.duration_s, 1 / 30)
     for sig in (signals_from_imu(imu.t_s, imu.accelerometer_mps2, imu.gyroscope_rps),
+                signals_from_imu(imu.t_s, imu.accelerometer_mps2),
                 signals_from_angles(tt, model.truth_angles_deg(tt))):
         act = segment(sig).activity_at(t)
         assert np.mean(act == "standing") >= 0.9, (sig.kind, [(float(a), str(b)) for a, b in zip(t, act, strict=True)])
