@@ -128,6 +128,31 @@ def test_a_dragged_foot_and_back_is_a_posture_change_with_its_labels(tmp_path) -
     assert any(b["start_s"] < pause.start_s and pause.end_s < b["end_s"] for b in doc["bouts"])
 
 
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_limp_seen_across_stops_is_labelled_on_the_bouts_evidence_together(tmp_path, seed: int) -> None:
+    """Three short walks with a dragged foot, 4 s stops between them (three bouts): each has two steady pairs of
+    alternating steps, under the 3 the classifier needs, so each alone stays ``unclassified``; the same posture
+    across the stops is labelled on their pooled evidence (a limp is the walker's, not the bout's)."""
+    doc, _, model = _imu_session(tmp_path, "stand:2,right_foot_drag:7,stand:4,right_foot_drag:7,stand:4,"
+                                 "right_foot_drag:7,stand:2", seed=seed)
+    assert len(doc["bouts"]) == 3
+    walks = [p for p in model.pieces if p.activity == "walking"]
+    for p in walks:
+        mid = 0.5 * (p.start_s + p.end_s)
+        (seg,) = [s for s in doc["segments"] if s["start_s"] <= mid <= s["end_s"]]
+        assert seg["asymmetry"]["step_time_n_pairs"] < 3  # too few on its own
+        assert seg["label"] == "right_foot_drag", seg["reasons"]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_normal_walks_across_stops_pooled_get_no_pathology_label(tmp_path, seed: int) -> None:
+    """The same three short walks and stops, walked normally by a trunk that pitches differently on its left and
+    right steps (lr:2): pooled across the bouts, still no pathology label."""
+    doc, _, _ = _imu_session(tmp_path, "lr:2,stand:2,normal:7,stand:4,normal:7,stand:4,normal:7,stand:2", seed=seed)
+    assert len(doc["bouts"]) == 3
+    assert {s["label"] for s in doc["segments"]} <= {"normal", "unclassified"}
+
+
 def test_sitting_is_not_standing_and_not_the_upright_reference(tmp_path) -> None:
     doc, rows, model = _imu_session(tmp_path, "stand:1,sit:10,pause:1.5,normal:12,stand:2", seed=3)
     sit = next(p for p in model.pieces if p.activity == "unknown")
