@@ -175,7 +175,7 @@ def _pooled_drag_rate(n_bouts: int, n_steps: int, long_s: float, short_s: float,
             arrays.append(st)
             spans.append((st[0] - 0.01, st[-1] + 0.01))
             t0 = st[-1] + 5.0
-        r = _pooled_alternation(spans, arrays, np.concatenate(arrays))
+        r = _pooled_alternation(spans, list(range(n_bouts)), arrays, np.concatenate(arrays))
         hits += bool(r["ratio"] >= th.drag_step_time_ratio and r["ratio_ci_low"] > 1.0)
     return hits / trials
 

@@ -28,7 +28,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -1035,22 +1035,21 @@ def _bouts(
         items = [span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base,
                                  steady_steps=seg.steady_steps_s) for q0, q1, _ in spans]
         k = len(per_bout)
+        per_bout.append((b, spans, items))
         for i, (_, _, at_cut) in enumerate(spans):
             # a bout's first stretch continues the chain of the bout before when the posture is the same
             if chains and not at_cut:
                 pk, pi = chains[-1][-1]
-                last = per_bout[pk][2][pi][0] if pk < k else items[pi][0]
-                if _same_posture(last, items[i][0], s):
+                if _same_posture(per_bout[pk][2][pi][0], items[i][0], s):
                     chains[-1].append((k, i))
                     continue
             chains.append([(k, i)])
-        per_bout.append((b, spans, items))
-    steps = [np.asarray(b.steps_s, dtype=float) for b, _, _ in per_bout]  # one array per bout: its identity marks it
+    steps = [np.asarray(b.steps_s, dtype=float) for b, _, _ in per_bout]
     for chain in chains:
         if len(chain) > 1:
             cls, pooled = _pooled_classification(
                 [per_bout[k][1][i][:2] for k, i in chain], [per_bout[k][2][i][0] for k, i in chain],
-                [steps[k] for k, _ in chain], seg.steady_steps_s, sig.kind, base)
+                [k for k, _ in chain], steps, seg.steady_steps_s, sig.kind, base)
         else:
             k, i = chain[0]
             cls, pooled = per_bout[k][2][i][0].classification, per_bout[k][2][i][0].to_dict()
@@ -1112,35 +1111,36 @@ def _fit_alternation(r: NDArray) -> tuple[float, float, int] | None:
 
 
 def _pooled_alternation(
-    spans: list[tuple[float, float]], span_bout_steps: list[NDArray], steady: NDArray
+    spans: list[tuple[float, float]], span_bouts: list[int], bout_steps: Sequence[NDArray], steady: NDArray
 ) -> dict[str, float]:
     """Alternating step time asymmetry over several straight stretches of one posture, as
     :func:`walkmon.gait.posture.alternation` fits one stretch: ``v[k] = c_j + s_j k + d (-1)^k`` with a level and a
-    trend per stretch and one shared side difference ``d``. ``span_bout_steps``: per stretch, the steps of the bout
-    it lies in. Each step interval's side is the parity of its first step's index in the bout: steps continue
-    through a turn, so the feet are known across it. After a pause, or in another bout, the walker may lead with
-    either foot: such stretches take the side that their own fit gives relative to the stretches before (this
-    choice can only favour a difference, so the classifier's ratio threshold, not the interval alone, guards
-    symmetric walks, with the interval widened for the choices made), and those whose side no fit of their own can
-    tell (too few intervals: fewer than 2 pairs, or 3 intervals and 1) are left out: with the side unknown their
-    intervals would count against a limp as often as for it (the simulator's unkind sessions: a dragged-foot bout
-    of 7 pairs, ratio 1.21, read 1.13 with one such pair of the next bout added). The reference is the largest
-    stretch group that has a fit. Returns ``ratio``, ``ratio_ci_low`` and ``n_pairs`` like ``alternation``."""
+    trend per stretch and one shared side difference ``d``. ``span_bouts``: per stretch, the index in ``bout_steps``
+    (each bout's steps) of the bout it lies in. Each step interval's side is the parity of its first step's index in
+    the bout: steps continue through a turn, so the feet are known across it. After a pause, or in another bout, the
+    walker may lead with either foot: such stretches take the side that their own fit gives relative to the
+    stretches before (this choice can only favour a difference, so the classifier's ratio threshold, not the
+    interval alone, guards symmetric walks, with the interval widened for the choices made), and those whose side no
+    fit of their own can tell (too few intervals: fewer than 2 pairs, or 3 intervals and 1) are left out: with the
+    side unknown their intervals would count against a limp as often as for it (the simulator's unkind sessions: a
+    dragged-foot bout of 7 pairs, ratio 1.21, read 1.13 with one such pair of the next bout added). The reference is
+    the largest stretch group that has a fit. Returns ``ratio``, ``ratio_ci_low`` and ``n_pairs`` like
+    ``alternation``."""
     from scipy.stats import t as student_t
 
     out = {"ratio": float("nan"), "ratio_ci_low": float("nan"), "n_pairs": 0.0}
     rows: list[tuple[int, float, float, float, int]] = []  # (stretch, k, side, interval, parity group)
     group = 0
     for j, (q0, q1) in enumerate(spans):
-        bout_steps = span_bout_steps[j]
+        steps = bout_steps[span_bouts[j]]
         if j > 0:
-            d_all = np.diff(bout_steps)
+            d_all = np.diff(steps)
             long = 1.6 * float(np.median(d_all)) if d_all.size else float("inf")
-            between = bout_steps[(bout_steps >= spans[j - 1][1] - 1e-6) & (bout_steps <= q0 + 1e-6)]
-            if span_bout_steps[j - 1] is not bout_steps or between.size < 2 or np.any(np.diff(between) > long):
+            between = steps[(steps >= spans[j - 1][1] - 1e-6) & (steps <= q0 + 1e-6)]
+            if span_bouts[j - 1] != span_bouts[j] or between.size < 2 or np.any(np.diff(between) > long):
                 group += 1  # a pause, another bout (or no step seen) before the stretch: the leading foot is unknown
         st = steady[(steady >= q0) & (steady <= q1)]
-        idx = np.searchsorted(bout_steps, st - 1e-6)
+        idx = np.searchsorted(steps, st - 1e-6)
         for i in range(st.size - 1):
             if idx[i + 1] == idx[i] + 1:  # consecutive steps of the bout (none left out between them)
                 rows.append((j, float(idx[i]), 1.0 if idx[i] % 2 == 0 else -1.0, float(st[i + 1] - st[i]), group))
@@ -1176,12 +1176,13 @@ def _pooled_alternation(
 
 
 def _pooled_classification(
-    spans: list[tuple[float, float]], inds: list[Indicators], span_bout_steps: list[NDArray], steady: NDArray,
-    kind: str, base: Mapping[str, Any] | None,
+    spans: list[tuple[float, float]], inds: list[Indicators], span_bouts: list[int], bout_steps: Sequence[NDArray],
+    steady: NDArray, kind: str, base: Mapping[str, Any] | None,
 ) -> tuple[Classification, dict[str, Any]]:
-    """One label for the straight stretches of one posture (``span_bout_steps``: per stretch, its bout's steps):
-    the classifier on their duration-weighted indicators, with the alternating-step evidence pooled
-    (:func:`_pooled_alternation`, the step counts added); and the pooled indicators it classified."""
+    """One label for the straight stretches of one posture (``span_bouts``, ``bout_steps``: as
+    :func:`_pooled_alternation` takes them): the classifier on their duration-weighted indicators, with the
+    alternating-step evidence pooled (:func:`_pooled_alternation`, the step counts added); and the pooled indicators
+    it classified."""
     from walkmon.gait.posture import classify
 
     if kind == "acc":  # accelerometer only: never a posture label (span_indicators says why)
@@ -1192,7 +1193,7 @@ def _pooled_classification(
     for ind in inds:
         n = ind.asymmetry.get("n_steps")
         n_steps += float(n) if n is not None and math.isfinite(n) else float(ind.axes["pitch"].n_cycles)
-    alt = _pooled_alternation(spans, span_bout_steps, np.asarray(steady, dtype=float))
+    alt = _pooled_alternation(spans, span_bouts, bout_steps, np.asarray(steady, dtype=float))
     swing: list[tuple[float, float]] = []
     for x, ind in zip(w, inds, strict=True):
         v = ind.asymmetry.get("step_swing_ratio")
@@ -1211,7 +1212,7 @@ def _pooled_classification(
     }
     cls = classify(doc, base)
     where = ", ".join(f"{q0:.1f}-{q1:.1f} s" for q0, q1 in spans)
-    n_bouts = len({id(x) for x in span_bout_steps})
+    n_bouts = len(set(span_bouts))
     of, gaps = ("the bout", "turns and pauses") if n_bouts == 1 else (f"{n_bouts} bouts", "turns, pauses and stops")
     return Classification(cls.label, (*cls.reasons, f"one posture over {len(spans)} straight stretches of {of} "
                                       f"({where}; the {gaps} between them left out), labelled together")), doc
