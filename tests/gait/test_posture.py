@@ -167,6 +167,24 @@ def test_alternation_is_not_fooled_by_speeding_up_or_slowing_down() -> None:
     assert alternation(steps[:5])["n_pairs"] == 2 and np.isnan(alternation(steps[:5])["ratio"])
 
 
+def test_step_time_alternation_reads_the_limp_from_step_times_and_not_a_change_of_pace() -> None:
+    """The fit on step times recovers a true left/right difference (ratio 1.222) with its interval, and steps that
+    shorten steadily (gait initiation) are no limp, as the interval fit above."""
+    from walkmon.gait.posture import step_time_alternation
+
+    rng = np.random.default_rng(4)
+    k = np.arange(20)
+    limp = np.concatenate([[0.0], np.cumsum(0.55 * (1 + 0.1 * np.where(k % 2 == 0, 1, -1)))])
+    assert step_time_alternation(limp)["ratio"] == pytest.approx(1.1 / 0.9, abs=1e-9)
+    alt = step_time_alternation(limp + rng.normal(0, 0.01, limp.size))
+    assert alt["ratio"] == pytest.approx(1.1 / 0.9, abs=0.06)  # the estimate's sd with this noise: 0.02
+    assert 1.0 < alt["ratio_ci_low"] < alt["ratio"]
+    assert alt["n_pairs"] == 10
+    speeding = np.concatenate([[0.0], np.cumsum(0.7 - 0.02 * np.arange(12))])
+    assert step_time_alternation(speeding)["ratio"] == pytest.approx(1.0, abs=1e-6)
+    assert np.isnan(step_time_alternation(speeding[:5])["ratio"])
+
+
 def _swaying(time_ratio: float | None, low: float | None, pairs: float | None) -> dict:
     doc = table3_doc("motion2")  # total swing 24.9 deg: the paper's foot-drag sway
     doc["asymmetry"] = {"step_time_ratio": time_ratio, "step_time_ratio_ci_low": low, "step_time_n_pairs": pairs,

@@ -702,19 +702,20 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
 
 
 def _steps_asymmetry(steps: NDArray[np.float64]) -> dict[str, float]:
-    """Alternating step time asymmetry of detected steps (:func:`walkmon.gait.posture.alternation`) over the
-    longest run without a pause (an interval above 1.6 x the median breaks the alternation: after a pause the
-    leading foot is unknown)."""
-    from walkmon.gait.posture import alternation
+    """Alternating step time asymmetry of detected steps (:func:`walkmon.gait.posture.step_time_alternation`)
+    over the longest run without a pause (an interval above 1.6 x the median breaks the alternation: after a pause
+    the leading foot is unknown)."""
+    from walkmon.gait.posture import step_time_alternation
 
-    d = np.diff(np.asarray(steps, dtype=float))
+    st = np.asarray(steps, dtype=float)
+    d = np.diff(st)
     if d.size:
         ok = d <= 1.6 * np.median(d)
         runs = _runs(ok)
         if runs:
             i0, i1 = max(runs, key=lambda r: r[1] - r[0])
-            d = d[i0:i1]
-    return alternation(d)
+            st = st[i0 : i1 + 1]
+    return step_time_alternation(st)
 
 
 def span_indicators(
@@ -1091,46 +1092,28 @@ def _same_posture(x: Indicators, y: Indicators, s: SessionSettings) -> bool:
     return dp < s.change_pitch_deg and dr < s.change_roll_deg and max(sx, sy) / min(sx, sy) < s.change_swing_ratio
 
 
-def _fit_alternation(r: NDArray) -> tuple[float, float, int] | None:
-    """Least-squares fit of rows (stretch, k, side, interval) as ``v = c_j + s_j k + d side``: (d, its standard
-    error, degrees of freedom), or None when underdetermined."""
-    cols = []
-    for g in sorted({int(v) for v in r[:, 0]}):
-        m = r[:, 0] == g
-        cols.append(m.astype(float))
-        if m.sum() >= 3:
-            cols.append(np.where(m, r[:, 1] - r[m, 1].mean(), 0.0))
-    x = np.column_stack([*cols, r[:, 2]])
-    dof = r.shape[0] - x.shape[1]
-    if dof < 1:
-        return None
-    coef, *_ = np.linalg.lstsq(x, r[:, 3], rcond=None)
-    resid = r[:, 3] - x @ coef
-    cov = np.linalg.pinv(x.T @ x) * float(resid @ resid) / dof
-    return float(coef[-1]), math.sqrt(max(float(cov[-1, -1]), 0.0)), dof
-
-
 def _pooled_alternation(
     spans: list[tuple[float, float]], span_bouts: list[int], bout_steps: Sequence[NDArray], steady: NDArray
 ) -> dict[str, float]:
     """Alternating step time asymmetry over several straight stretches of one posture, as
-    :func:`walkmon.gait.posture.alternation` fits one stretch: ``v[k] = c_j + s_j k + d (-1)^k`` with a level and a
-    trend per stretch and one shared side difference ``d``. ``span_bouts``: per stretch, the index in ``bout_steps``
-    (each bout's steps) of the bout it lies in. Each step interval's side is the parity of its first step's index in
-    the bout: steps continue through a turn, so the feet are known across it. After a pause, or in another bout, the
-    walker may lead with either foot: such stretches take the side that their own fit gives relative to the
-    stretches before (this choice can only favour a difference, so the classifier's ratio threshold, not the
-    interval alone, guards symmetric walks, with the interval widened for the choices made), and those whose side no
-    fit of their own can tell (too few intervals: fewer than 2 pairs, or 3 intervals and 1) are left out: with the
-    side unknown their intervals would count against a limp as often as for it (the simulator's unkind sessions: a
-    dragged-foot bout of 7 pairs, ratio 1.21, read 1.13 with one such pair of the next bout added). The reference is
-    the largest stretch group that has a fit. Returns ``ratio``, ``ratio_ci_low`` and ``n_pairs`` like
-    ``alternation``."""
-    from scipy.stats import t as student_t
+    :func:`walkmon.gait.posture.step_time_alternation` fits one stretch: the step times with a level, a rate and a
+    change of rate per run of consecutive steps and one shared side difference ``d``
+    (:func:`walkmon.gait.posture.fit_step_time_alternation`; the intervals then follow ``c_j + s_j k + d (-1)^k``).
+    ``span_bouts``: per stretch, the index in ``bout_steps`` (each bout's steps) of the bout it lies in. Each step's
+    side is the parity of its index in the bout: steps continue through a turn, so the feet are known across it.
+    After a pause, or in another bout, the walker may lead with either foot: such stretches take the side that their
+    own fit gives relative to the stretches before (this choice can only favour a difference, so the classifier's
+    ratio threshold, not the interval alone, guards symmetric walks, with the interval widened for the choices made),
+    and those whose side no fit of their own can tell (too few intervals: fewer than 2 pairs, or 3 intervals and 1)
+    are left out: with the side unknown their intervals would count against a limp as often as for it (the
+    simulator's unkind sessions: a dragged-foot bout of 7 pairs, ratio 1.21, read 1.13 with one such pair of the
+    next bout added). The reference is the largest stretch group that has a fit. Returns ``ratio``,
+    ``ratio_ci_low`` and ``n_pairs`` (pairs of intervals) like ``alternation``."""
+    from walkmon.gait.posture import alternation_ratio, fit_step_time_alternation
 
     out = {"ratio": float("nan"), "ratio_ci_low": float("nan"), "n_pairs": 0.0}
-    rows: list[tuple[int, float, float, float, int]] = []  # (stretch, k, side, interval, parity group)
-    group = 0
+    rows: list[tuple[int, float, float, float, int]] = []  # per step: (run, index in bout, side, time, parity group)
+    group, run, n_intervals = 0, 0, 0
     for j, (q0, q1) in enumerate(spans):
         steps = bout_steps[span_bouts[j]]
         if j > 0:
@@ -1141,37 +1124,37 @@ def _pooled_alternation(
                 group += 1  # a pause, another bout (or no step seen) before the stretch: the leading foot is unknown
         st = steady[(steady >= q0) & (steady <= q1)]
         idx = np.searchsorted(steps, st - 1e-6)
-        for i in range(st.size - 1):
-            if idx[i + 1] == idx[i] + 1:  # consecutive steps of the bout (none left out between them)
-                rows.append((j, float(idx[i]), 1.0 if idx[i] % 2 == 0 else -1.0, float(st[i + 1] - st[i]), group))
-    if len(rows) < 6:
-        out["n_pairs"] = float(len(rows) // 2)
+        # runs of consecutive steps of the bout (none left out between them); a lone step tells no interval
+        for part in np.split(np.arange(st.size), np.flatnonzero(np.diff(idx) != 1) + 1):
+            if part.size < 2:
+                continue
+            run += 1
+            n_intervals += part.size - 1
+            rows += [(run, float(idx[i]), 0.5 if idx[i] % 2 == 1 else -0.5, float(st[i]), group) for i in part]
+    if n_intervals < 6:
+        out["n_pairs"] = float(n_intervals // 2)
         return out
     r = np.array(rows)
     groups = sorted({int(g) for g in r[:, 4]}, key=lambda g: -int(np.sum(r[:, 4] == g)))
     free = 0  # groups whose side was chosen to agree with the reference's
     if len(groups) > 1:
-        fits = [(g, f) for g in groups if (f := _fit_alternation(r[r[:, 4] == g, :4])) is not None]
+        fits = [(g, f) for g in groups if (f := fit_step_time_alternation(r[r[:, 4] == g, :4])) is not None]
         r = r[np.isin(r[:, 4], [g for g, _ in fits])]
         for g, f in fits[1:]:
             if f[0] * fits[0][1][0] < 0:
                 r[r[:, 4] == g, 2] *= -1.0
         free = max(len(fits) - 1, 0)
-    out["n_pairs"] = float(r.shape[0] // 2)
-    fit = _fit_alternation(r[:, :4])
-    if fit is None or r.shape[0] // 2 < 3:
-        return out
-    d, se, dof = abs(fit[0]), fit[1], fit[2]
-    c = float(np.mean(r[:, 3]))
-    if not c - d > 0:
+    runs = [r[r[:, 0] == k, 3] for k in sorted({float(v) for v in r[:, 0]})]
+    intervals = np.concatenate([np.diff(t) for t in runs]) if runs else np.zeros(0)
+    out["n_pairs"] = float(intervals.size // 2)
+    fit = fit_step_time_alternation(r[:, :4])
+    if fit is None or intervals.size // 2 < 3:
         return out
     # each free side was chosen to agree, so the difference is the best of 2 ** free arrangements: the interval is
     # widened for that many (Bonferroni). Without it, three bouts of 2 pairs each, symmetric with 30 ms of noise on
-    # each interval, passed the foot-drag evidence 7 % of the time (0.7 % in one stretch of as many pairs); with it
-    # 2.8 % (600 draws; tests/gait/test_session.py holds it under 4 %)
-    low = max(d - float(student_t.ppf(1.0 - 0.025 / 2.0**free, dof)) * se, 0.0)
-    out["ratio"] = (c + d) / (c - d)
-    out["ratio_ci_low"] = (c + low) / (c - low)
+    # each interval, passed the foot-drag evidence 6.5 % of the time; with it 2.0 % (600 draws; 7 and 2.8 % with the
+    # interval fit of before 2026-11-28; tests/gait/test_session.py holds it under 4 %)
+    out["ratio"], out["ratio_ci_low"] = alternation_ratio(float(np.mean(intervals)), *fit, tests=2**free)
     return out
 
 
