@@ -1115,3 +1115,14 @@ def test_a_recording_longer_than_two_days_is_refused_without_blaming_its_clock()
     with pytest.raises(InvalidInputError, match="split it into recordings of at most that length") as exc:
         signals_from_imu(t, np.tile([0.0, -9.81, 0.0], (t.size, 1)))
     assert "jump" not in str(exc.value)
+
+
+def test_a_stride_of_exactly_the_longest_counts_though_its_float_difference_is_longer() -> None:
+    """Steps found on a sample grid make strides of exactly 3.00 s across a short stop; Mobilise-D counts strides
+    up to 3.0 s, but 10.8 - 7.8 is 3.0000000000000004 in floats, which dropped one of the two and read this bout
+    +9 % (a simulated session's bout: +1.5 %). Expected: five strides of 1.08 s and two of 3.00 s."""
+    from walkmon.gait.activity import DEFAULT_ACTIVITY_SETTINGS, cadence_from_steps
+
+    st = np.array([5.64, 6.18, 6.72, 7.26, 7.80, 10.26, 10.80, 11.34, 11.88])
+    expected = (5 * 120.0 / 1.08 + 2 * 120.0 / 3.0) / 7
+    assert cadence_from_steps(st, DEFAULT_ACTIVITY_SETTINGS, mend=True) == pytest.approx(expected, rel=1e-9)

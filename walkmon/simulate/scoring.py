@@ -137,7 +137,7 @@ def _spans(step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s:
     t, bout = t[inside], bout[inside]
     if t.size <= k:
         return np.zeros(0)
-    span = t[k:] - t[:-k]
+    span = np.round(t[k:] - t[:-k], 9)  # a float difference must not decide the bound (10.8 - 7.8 > 3.0)
     if within_s is not None:
         return span[(span > within_s[0]) & (span <= within_s[1])]
     return span[bout[k:] == bout[:-k]]
