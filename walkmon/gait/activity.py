@@ -102,6 +102,12 @@ G = 9.80665
 STILL_WINDOW_S = 1.0  # the standing test's window (:func:`_still_samples`), s
 
 
+#: How far a difference of times (s) may pass a bound and still meet it: steps found on a sample grid make strides
+#: of exactly 3.00 s, which a float difference reads as 3.0000000000000004 (10.8 - 7.8), and the 3.0 s bound
+#: dropped such a stride (a simulated bout read +1.5 % for it)
+DURATION_TOLERANCE_S = 1e-9
+
+
 @dataclass(frozen=True, slots=True)
 class ActivitySettings:
     """Settings of the segmentation (seconds, Hz, steps/min; see the module text for their role)."""
@@ -1077,18 +1083,11 @@ def _stride_edges(g: NDArray[np.float64], longest_s: float) -> tuple[int, int]:
     than ``longest_s`` after the step two before it (a shuffle or a weight shift after a pause of 2-3 s) is no
     part of the bout, though the step rule's break (``max_break_s`` between steps) would join it."""
     i0, i1 = 0, g.size
-    while i1 - i0 >= 3 and _duration(g[i1 - 1] - g[i1 - 3]) > longest_s:
+    while i1 - i0 >= 3 and g[i1 - 1] - g[i1 - 3] > longest_s + DURATION_TOLERANCE_S:
         i1 -= 1
-    while i1 - i0 >= 3 and _duration(g[i0 + 2] - g[i0]) > longest_s:
+    while i1 - i0 >= 3 and g[i0 + 2] - g[i0] > longest_s + DURATION_TOLERANCE_S:
         i0 += 1
     return i0, i1
-
-
-def _duration(x: Any) -> Any:
-    """Differences of times (s) rounded to the nanosecond before they meet a bound: steps found on a sample
-    grid make strides of exactly 3.00 s, which a float difference reads as 3.0000000000000004 (10.8 - 7.8) and
-    the 3.0 s bound drops (a simulated bout read +1.5 % for that one stride)."""
-    return np.round(x, 9)
 
 
 def _trim_edges(g: NDArray[np.float64]) -> tuple[int, int]:
@@ -1217,9 +1216,10 @@ def cadence_from_steps(
         stride = (d[1:] + d[:-1])[regular[1:] & regular[:-1]]
         if stride.size >= 2:
             return float(np.mean(120.0 / stride))
-    stride = _duration(d[1:] + d[:-1])
+    stride = d[1:] + d[:-1]
     if mend:
-        stride = stride[(stride > s.stride_s[0]) & (stride <= s.stride_s[1])]
+        tol = DURATION_TOLERANCE_S
+        stride = stride[(stride > s.stride_s[0] + tol) & (stride <= s.stride_s[1] + tol)]
         return float(np.mean(120.0 / stride)) if stride.size else float("nan")
     # local, but within pause_factor of the bout's: two hesitations a step apart make four long strides in a
     # row, which must not become the rhythm

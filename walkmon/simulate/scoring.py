@@ -120,6 +120,7 @@ def segment_label_accuracy(
     return (100.0 * right / n if n else float("nan")), n
 
 
+_TOLERANCE_S = 1e-9  # how far a float difference of times may pass a bound and still meet it
 # the duration rule of Mobilise-D's stride selection (mobgap's IntervalDurationCriteria(min_duration_s=0.2,
 # max_duration_s=3.0), over 0.2 s and up to 3.0 s): the strides a walking bout's cadence averages, whichever stretch
 # of walking they join (its other rule, a stride length >= 0.15 m, the simulator's steps all pass)
@@ -137,9 +138,9 @@ def _spans(step_times_s: ArrayLike, step_bout: ArrayLike, start_s: float, end_s:
     t, bout = t[inside], bout[inside]
     if t.size <= k:
         return np.zeros(0)
-    span = np.round(t[k:] - t[:-k], 9)  # a float difference must not decide the bound (10.8 - 7.8 > 3.0)
-    if within_s is not None:
-        return span[(span > within_s[0]) & (span <= within_s[1])]
+    span = t[k:] - t[:-k]
+    if within_s is not None:  # a float difference must not decide the bound (10.8 - 7.8 > 3.0)
+        return span[(span > within_s[0] + _TOLERANCE_S) & (span <= within_s[1] + _TOLERANCE_S)]
     return span[bout[k:] == bout[:-k]]
 
 
