@@ -503,7 +503,9 @@ def oxford_sessions(base: Path) -> list[dict]:
         t = (a[:, 0] - a[0, 0]) * 1e-9
         keep = np.concatenate([[True], np.diff(t) > 0])
         n_true = int(np.sum(np.diff(sc[:, 1]) == 1) + np.sum(np.diff(sc[:, 2]) == 1))
-        ts = (sc[:, 0] - a[0, 0]) * 1e-9  # the foot switches' counts (left, right), on the accelerometer's clock
+        # the log's rows: a time, then each foot switch's state (0/1); a step where one turns to 1. On the
+        # accelerometer's clock
+        ts = (sc[:, 0] - a[0, 0]) * 1e-9
         switches = np.sort(np.concatenate([ts[1:][np.diff(sc[:, 1]) == 1], ts[1:][np.diff(sc[:, 2]) == 1]]))
         out.append({"key": d.name, "t": t[keep], "acc": a[keep, 2:5], "n_true": n_true, "switches": switches})
     return out
@@ -779,9 +781,10 @@ def main() -> int:
         "extra steps, their first and last two steps left out, windows not overlapping), from walkmon's steps (acc",
         "only) and from the foot switches' own times; fitted on the step times (walkmon since 2026-11-28) and on",
         "their intervals (before). A window that fires would be a false alarm, if the sway rule also held. The",
-        "foot-switch log is sampled every 90 ms: its step times carry up to +-45 ms of rounding, timing error of the",
-        "kind the step-time fit expects; what fires on them beyond the 95 % interval's 5 % may be these walkers' own",
-        "left/right difference or a latency between the two switches (the files cannot tell).",
+        "three widths window the same steps: not independent trials. The foot-switch column is no reference for the",
+        "walkers' symmetry: the log is sampled every 90 ms (Pixel) or 98 ms (Samsung), and five of the six walks",
+        "step every 5.5 samples or so, so rounding to the log's grid alternates their durations by itself (0.45 /",
+        "0.54 s); an ideal symmetric walker logged like that fires nearly every time.",
         "",
         "| steps per window | walkmon windows | fire, step-time fit | fire, interval fit | foot-switch windows | "
         "fire, step-time fit | fire, interval fit |",

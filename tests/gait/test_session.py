@@ -187,7 +187,7 @@ def _pooled_drag_rate(
 
 def test_pooling_across_stops_keeps_the_false_alarm_rate_of_a_95_percent_interval() -> None:
     """Symmetric steps in three bouts of two pairs each: each bout's side is chosen to agree with the others, which
-    can only favour a difference, so the interval is widened for those choices. Without that, 7 % of such
+    can only favour a difference, so the interval is widened for those choices. Without that, 6.5 % of such
     symmetric walks had the evidence of a dragged foot; the bound is the interval's own 2.5 % (one-sided) with
     room for the 400 draws. A real limp (0.61 / 0.49 s, ratio 1.24) is still found in nearly every draw."""
     assert _pooled_drag_rate(3, 5, 0.55, 0.55) <= 0.04
@@ -219,7 +219,7 @@ def test_a_detectors_timing_error_on_each_step_is_no_limp() -> None:
     bouts of 10) of the time, against the 95 % interval's 5 %. Fitted on the step times, within that 5 %
     (bounds with room for the draws); a real limp (ratio 1.2 and 1.24) is still found."""
     assert _single_drag_rate(12, 0.55, 0.55) <= 0.07
-    assert _single_drag_rate(20, 0.60, 0.50) >= 0.85
+    assert _single_drag_rate(20, 0.60, 0.50) >= 0.8
     assert _pooled_drag_rate(2, 10, 0.55, 0.55, 600, interval_sd=0.01, jitter_sd=0.03) <= 0.075
     assert _pooled_drag_rate(2, 10, 0.61, 0.49, 300, interval_sd=0.01, jitter_sd=0.03) >= 0.9
 

@@ -36,7 +36,8 @@ Anything else (e.g. leaning right or backward) is ``unclassified``, with the rea
 No false alarms without a baseline (issue 11): a large trunk sway alone is not a pathology: turns, gait
 initiation and a lower-back or loosely worn sensor all give large swings in healthy people (28 of 28 real
 healthy walks were labelled right_foot_drag by the sway rule alone). Without a baseline, right_foot_drag also
-needs evidence that alternating steps differ in TIME (:func:`alternation`): a step time ratio >= 1.08 (the upper
+needs evidence that alternating steps differ in TIME (:func:`step_time_alternation`, fitted on the detected
+step times): a step time ratio >= 1.08 (the upper
 end of healthy left/right symmetry ratios, Patterson et al. 2010) whose 95 % confidence interval excludes
 symmetry, over at least 3 pairs of steady-state steps (with an IMU: the detected steps minus each bout's first
 and last two steps, gait initiation and termination, and minus turn steps; :func:`walkmon.gait.activity.
@@ -69,11 +70,14 @@ __all__ = [
     "LABELS",
     "PostureThresholds",
     "ROTATION_STEP_TIMES",
+    "STEP_TIME_BLOCK_STEPS",
     "alternation",
     "alternation_ratio",
     "classify",
     "fit_step_time_alternation",
     "step_time_alternation",
+    "step_time_evidence",
+    "step_time_intervals",
 ]
 
 _log = logging.getLogger(__name__)
@@ -163,27 +167,39 @@ def alternation(values: Any, min_pairs: int = 3) -> dict[str, float]:
     return out
 
 
+#: Steps per block of :func:`fit_step_time_alternation`'s pace model (about 10 s of walking): a walker's pace
+#: drifts, and in the step times the drift adds up, which one quadratic over a long stretch cannot follow (a
+#: synthetic limp of ratio 1.12 under a slowly drifting pace, 160 steps in one piece: found 28 % of the time;
+#: in blocks of 12-24 steps, 100 %; up to 20 steps nothing changes)
+STEP_TIME_BLOCK_STEPS = 20
+
+
 def fit_step_time_alternation(rows: Any) -> tuple[float, float, int] | None:
     """Half the left/right difference of step durations, fitted on the step *times*: rows ``(run, m, side, t)``,
-    one per detected step, where a run is a stretch of consecutive steps, ``m`` a step's index and ``side`` +-0.5
-    by foot (+0.5 for odd ``m`` in :func:`step_time_alternation`). Fits ``t = a_j + b_j m + q_j m^2 + d side``
-    with a level, a rate and (runs of 4 steps or more) a change of rate per run, by least squares. The intervals
-    then follow ``c_j + s_j k + d (-1)^k`` as :func:`alternation` fits them, but the errors are the step times'
-    own: a detector places each step with its own timing error, and the difference of two neighbouring errors
-    enters both intervals beside a step (adjacent intervals' errors correlate -0.5), so an interval fit that
-    takes them as independent halves the variance of their alternating part (a symmetric walk whose detected
-    steps jitter by 20-40 ms then passed the foot-drag evidence 7-14 % of the time instead of <= 5 %). A
-    walker's own interval-to-interval variability makes the times' errors a random walk, for which this fit is
-    conservative (its interval wider). Returns ``(d, standard error, degrees of freedom)`` or None when
-    underdetermined; ``d > 0`` when the steps from an even ``m`` (side -0.5 to +0.5) are the longer."""
+    one per detected step, where a run is a stretch of one walk (the feet known throughout), ``m`` a step's index
+    in it and ``side`` +-0.5 by foot (+0.5 for odd ``m`` in :func:`step_time_alternation`). Fits
+    ``t = a_j + b_j m + q_j m^2 + d side`` with a level, a rate and (4 steps or more) a change of rate per block
+    of at most :data:`STEP_TIME_BLOCK_STEPS` steps of a run, by least squares. The intervals then follow
+    ``c + s k + d (-1)^k`` as :func:`alternation` fits them, but the errors are the step times' own: a detector
+    places each step with its own timing error, and the difference of two neighbouring errors enters both
+    intervals beside a step (adjacent intervals' errors correlate -0.5), so an interval fit that takes them as
+    independent halves the variance of their alternating part (a symmetric walk whose detected steps jitter by
+    20-40 ms then passed the foot-drag evidence 7-14 % of the time instead of <= 5 %). A walker's own
+    interval-to-interval variability makes the times' errors a random walk, which the blocks' pace model follows.
+    Returns ``(d, standard error, degrees of freedom)`` or None when underdetermined; ``d > 0`` when the steps
+    from an even ``m`` (side -0.5 to +0.5) are the longer."""
     r = np.asarray(rows, dtype=float).reshape(-1, 4)
     cols = []
     for j in sorted({float(v) for v in r[:, 0]}):
-        in_run = r[:, 0] == j
-        m = np.where(in_run, r[:, 1] - r[in_run, 1].mean(), 0.0)
-        cols += [in_run.astype(float), m]
-        if in_run.sum() >= 4:
-            cols.append(m**2)
+        in_run = np.flatnonzero(r[:, 0] == j)
+        in_run = in_run[np.argsort(r[in_run, 1], kind="stable")]
+        for block in np.array_split(in_run, max(1, math.ceil(in_run.size / STEP_TIME_BLOCK_STEPS))):
+            here = np.zeros(r.shape[0])
+            here[block] = 1.0
+            m = np.where(here > 0, r[:, 1] - r[block, 1].mean(), 0.0)
+            cols += [here, m]
+            if block.size >= 4:
+                cols.append(m**2)
     x = np.column_stack([*cols, r[:, 2]])
     dof = r.shape[0] - x.shape[1]
     if dof < 1:
@@ -192,6 +208,31 @@ def fit_step_time_alternation(rows: Any) -> tuple[float, float, int] | None:
     resid = r[:, 3] - x @ coef
     cov = np.linalg.pinv(x.T @ x) * float(resid @ resid) / dof
     return float(coef[-1]), math.sqrt(max(float(cov[-1, -1]), 0.0)), dof
+
+
+def step_time_intervals(rows: Any) -> tuple[Any, Any]:
+    """The durations between consecutive steps (``m`` and ``m + 1`` of one run) of rows ``(run, m, side, t)``
+    as :func:`fit_step_time_alternation` takes them, and each duration's side: +1 or -1 (the change of side)."""
+    r = np.asarray(rows, dtype=float).reshape(-1, 4)
+    r = r[np.lexsort((r[:, 1], r[:, 0]))]
+    ok = (r[1:, 0] == r[:-1, 0]) & (r[1:, 1] - r[:-1, 1] == 1)
+    return (r[1:, 3] - r[:-1, 3])[ok], (r[1:, 2] - r[:-1, 2])[ok]
+
+
+def step_time_evidence(rows: Any, min_pairs: int = 3, tests: int = 1) -> dict[str, float]:
+    """``ratio``, ``ratio_ci_low`` and ``n_pairs`` (pairs of consecutive-step durations) of rows
+    ``(run, m, side, t)``: :func:`fit_step_time_alternation`'s side difference about the mean step without it
+    (:func:`alternation_ratio`, ``tests`` as there); NaN ratios with fewer than ``min_pairs`` pairs."""
+    v, sign = step_time_intervals(rows)
+    out = {"ratio": float("nan"), "ratio_ci_low": float("nan"), "n_pairs": float(v.size // 2)}
+    if v.size // 2 < max(2, int(min_pairs)):
+        return out
+    fit = fit_step_time_alternation(rows)
+    if fit is None:
+        return out
+    # the mean step without the side difference: with an odd count of durations one side has one more
+    out["ratio"], out["ratio_ci_low"] = alternation_ratio(float(np.mean(v - fit[0] * sign)), *fit, tests=tests)
+    return out
 
 
 def alternation_ratio(c: float, d: float, se: float, dof: int, tests: int = 1) -> tuple[float, float]:
@@ -210,20 +251,13 @@ def alternation_ratio(c: float, d: float, se: float, dof: int, tests: int = 1) -
 
 def step_time_alternation(times: Any, min_pairs: int = 3) -> dict[str, float]:
     """:func:`alternation` of the step durations of consecutive detected steps at ``times``, with the errors
-    taken where a detector makes them, on each step's time (:func:`fit_step_time_alternation`). Returns
-    ``ratio``, ``ratio_ci_low`` and ``n_pairs`` (pairs of intervals) like :func:`alternation`."""
+    taken where a detector makes them, on each step's time (:func:`step_time_evidence`). A NaN time is a step
+    not timed: its neighbours keep their sides. Returns ``ratio``, ``ratio_ci_low`` and ``n_pairs`` (pairs of
+    durations between consecutive timed steps) like :func:`alternation`."""
     t = np.asarray(times, dtype=float).ravel()
-    t = t[np.isfinite(t)]
-    n_pairs = max(t.size - 1, 0) // 2
-    out = {"ratio": float("nan"), "ratio_ci_low": float("nan"), "n_pairs": float(n_pairs)}
-    if n_pairs < max(2, int(min_pairs)) or t.size < 5:
-        return out
     m = np.arange(t.size, dtype=float)
-    fit = fit_step_time_alternation(np.column_stack([np.zeros(t.size), m, np.where(m % 2 == 1, 0.5, -0.5), t]))
-    if fit is None:
-        return out
-    out["ratio"], out["ratio_ci_low"] = alternation_ratio(float(np.mean(np.diff(t))), *fit)
-    return out
+    rows = np.column_stack([np.zeros(t.size), m, np.where(m % 2 == 1, 0.5, -0.5), t])[np.isfinite(t)]
+    return step_time_evidence(rows, min_pairs)
 
 
 def _axis(doc: Mapping[str, Any], axis: str, key: str) -> float:

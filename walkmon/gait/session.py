@@ -709,8 +709,8 @@ def _steps_asymmetry(steps: NDArray[np.float64]) -> dict[str, float]:
 
     st = np.asarray(steps, dtype=float)
     d = np.diff(st)
-    if d.size:
-        ok = d <= 1.6 * np.median(d)
+    if np.isfinite(d).any():
+        ok = d <= 1.6 * np.nanmedian(d)
         runs = _runs(ok)
         if runs:
             i0, i1 = max(runs, key=lambda r: r[1] - r[0])
@@ -1097,23 +1097,22 @@ def _pooled_alternation(
 ) -> dict[str, float]:
     """Alternating step time asymmetry over several straight stretches of one posture, as
     :func:`walkmon.gait.posture.step_time_alternation` fits one stretch: the step times with a level, a rate and a
-    change of rate per run of consecutive steps and one shared side difference ``d``
+    change of rate per stretch (per block of up to 20 steps of it) and one shared side difference ``d``
     (:func:`walkmon.gait.posture.fit_step_time_alternation`; the intervals then follow ``c_j + s_j k + d (-1)^k``).
     ``span_bouts``: per stretch, the index in ``bout_steps`` (each bout's steps) of the bout it lies in. Each step's
     side is the parity of its index in the bout: steps continue through a turn, so the feet are known across it.
     After a pause, or in another bout, the walker may lead with either foot: such stretches take the side that their
     own fit gives relative to the stretches before (this choice can only favour a difference, so the classifier's
     ratio threshold, not the interval alone, guards symmetric walks, with the interval widened for the choices made),
-    and those whose side no fit of their own can tell (too few intervals: fewer than 2 pairs, or 3 intervals and 1)
-    are left out: with the side unknown their intervals would count against a limp as often as for it (the
+    and those whose side no fit of their own can tell (too few steps for a fit with a degree of freedom left) are
+    left out: with the side unknown their intervals would count against a limp as often as for it (the
     simulator's unkind sessions: a dragged-foot bout of 7 pairs, ratio 1.21, read 1.13 with one such pair of the
     next bout added). The reference is the largest stretch group that has a fit. Returns ``ratio``,
     ``ratio_ci_low`` and ``n_pairs`` (pairs of intervals) like ``alternation``."""
-    from walkmon.gait.posture import alternation_ratio, fit_step_time_alternation
+    from walkmon.gait.posture import fit_step_time_alternation, step_time_evidence, step_time_intervals
 
-    out = {"ratio": float("nan"), "ratio_ci_low": float("nan"), "n_pairs": 0.0}
-    rows: list[tuple[int, float, float, float, int]] = []  # per step: (run, index in bout, side, time, parity group)
-    group, run, n_intervals = 0, 0, 0
+    rows: list[tuple[int, float, float, float, int]] = []  # per step: (stretch, index in bout, side, time, group)
+    group = 0
     for j, (q0, q1) in enumerate(spans):
         steps = bout_steps[span_bouts[j]]
         if j > 0:
@@ -1124,17 +1123,11 @@ def _pooled_alternation(
                 group += 1  # a pause, another bout (or no step seen) before the stretch: the leading foot is unknown
         st = steady[(steady >= q0) & (steady <= q1)]
         idx = np.searchsorted(steps, st - 1e-6)
-        # runs of consecutive steps of the bout (none left out between them); a lone step tells no interval
-        for part in np.split(np.arange(st.size), np.flatnonzero(np.diff(idx) != 1) + 1):
-            if part.size < 2:
-                continue
-            run += 1
-            n_intervals += part.size - 1
-            rows += [(run, float(idx[i]), 0.5 if idx[i] % 2 == 1 else -0.5, float(st[i]), group) for i in part]
+        rows += [(j, float(i), 0.5 if i % 2 == 1 else -0.5, float(t), group) for i, t in zip(idx, st, strict=True)]
+    r = np.array(rows, dtype=float).reshape(-1, 5)
+    n_intervals = step_time_intervals(r[:, :4])[0].size
     if n_intervals < 6:
-        out["n_pairs"] = float(n_intervals // 2)
-        return out
-    r = np.array(rows)
+        return {"ratio": float("nan"), "ratio_ci_low": float("nan"), "n_pairs": float(n_intervals // 2)}
     groups = sorted({int(g) for g in r[:, 4]}, key=lambda g: -int(np.sum(r[:, 4] == g)))
     free = 0  # groups whose side was chosen to agree with the reference's
     if len(groups) > 1:
@@ -1144,18 +1137,11 @@ def _pooled_alternation(
             if f[0] * fits[0][1][0] < 0:
                 r[r[:, 4] == g, 2] *= -1.0
         free = max(len(fits) - 1, 0)
-    runs = [r[r[:, 0] == k, 3] for k in sorted({float(v) for v in r[:, 0]})]
-    intervals = np.concatenate([np.diff(t) for t in runs]) if runs else np.zeros(0)
-    out["n_pairs"] = float(intervals.size // 2)
-    fit = fit_step_time_alternation(r[:, :4])
-    if fit is None or intervals.size // 2 < 3:
-        return out
     # each free side was chosen to agree, so the difference is the best of 2 ** free arrangements: the interval is
     # widened for that many (Bonferroni). Without it, three bouts of 2 pairs each, symmetric with 30 ms of noise on
     # each interval, passed the foot-drag evidence 6.5 % of the time; with it 2.0 % (600 draws; 7 and 2.8 % with the
     # interval fit of before 2026-11-28; tests/gait/test_session.py holds it under 4 %)
-    out["ratio"], out["ratio_ci_low"] = alternation_ratio(float(np.mean(intervals)), *fit, tests=2**free)
-    return out
+    return step_time_evidence(r[:, :4], min_pairs=3, tests=2**free)
 
 
 def _pooled_classification(
