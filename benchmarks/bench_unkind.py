@@ -59,6 +59,7 @@ from walkmon.simulate.scoring import (
     change_points,
     posture_change_errors,
     segment_label_accuracy,
+    segments_labelled_otherwise,
     true_posture_segments,
 )
 from walkmon.simulate.unkind import UNKIND_WALKS, unkind_script
@@ -256,7 +257,9 @@ def score(truth: Truth, est: Estimate) -> dict[str, Any]:
     true_cp = change_points(true_segs, max_gap_s=0.5)  # changes during a walk (not across turns or pauses)
     est_cp = change_points(est.segments, max_gap_s=2.0)
     cp_err, cp_false = posture_change_errors(true_cp, est_cp, TARGETS["boundary_s"])
-    lab_pct, n_lab = segment_label_accuracy([s for s in true_segs if s[1] - s[0] >= MIN_SEGMENT_S], est.segments)
+    scored = [s for s in true_segs if s[1] - s[0] >= MIN_SEGMENT_S]
+    lab_pct, n_lab = segment_label_accuracy(scored, est.segments)
+    lab_wrong = segments_labelled_otherwise(scored, est.segments)
     cad = cadence_errors(est.bouts, truth.steps_t, truth.steps_bout)
     cad_steps = cadence_errors(est.bouts, truth.steps_t, truth.steps_bout, definition="steps")
     true_bouts = [b for b in truth.bouts if b["n_steps"] >= 4]
@@ -270,6 +273,7 @@ def score(truth: Truth, est: Estimate) -> dict[str, Any]:
         "labels_pct": lab_pct,
         "labels_n": n_lab,
         "labels_right": round(lab_pct * n_lab / 100.0) if n_lab else 0,
+        "labels_wrong": lab_wrong,
         "cadence": [{"start_s": c.start_s, "end_s": c.end_s, "est_spm": c.est_cadence_spm,
                      "true_spm": c.true_cadence_spm, "err_pct": c.error_pct, "n_steps": c.n_true_steps}
                     for c in cad],
@@ -289,8 +293,9 @@ def _row_line(r: dict) -> str:
     cp = "-" if not errs else " / ".join("miss" if not np.isfinite(e) else f"{e:.1f}" for e in errs)
     cad = [c["err_pct"] for c in r["cadence"]]
     cad_s = "-" if not cad else f"{max(abs(c) for c in cad):.1f} ({len(cad)})"
+    wrong = f" ({r['labels_wrong']} wrong)" if r.get("labels_wrong") else ""
     return (f"| {r['walk']} | {r['seed']} | {r['source']} | {r['duration_s']:.0f} | {_fmt(r['activity_pct'])} | "
-            f"{cp} | {r['change_false']} | {r['labels_right']}/{r['labels_n']} | {cad_s} | "
+            f"{cp} | {r['change_false']} | {r['labels_right']}/{r['labels_n']}{wrong} | {cad_s} | "
             f"{r['true_bouts_found']}/{r['true_bouts']} | {r['est_bouts']} |")
 
 
@@ -317,6 +322,7 @@ def summarise(rows: list[dict]) -> list[dict[str, Any]]:
             "change_false": int(sum(r["change_false"] for r in rs)),
             "labels_pct": 100.0 * lab_right / lab_n if lab_n else float("nan"),
             "labels_n": lab_n,
+            "labels_wrong": int(sum(r.get("labels_wrong", 0) for r in rs)),
             "cadence_bouts": int(cad.size),
             "cadence_within_pct": float(100.0 * np.mean(cad <= TARGETS["cadence_pct"])) if cad.size else float("nan"),
             "cadence_err_median_pct": float(np.median(cad)) if cad.size else float("nan"),
@@ -331,7 +337,8 @@ def summarise(rows: list[dict]) -> list[dict[str, Any]]:
 
 def _summary_lines(summary: list[dict]) -> list[str]:
     head = ("| source | sessions | activity right % mean (min) | true change points within 1.5 s | "
-            "false change points | labels right % | bouts with cadence within 1 % (median / max err %) | "
+            "false change points | labels right % (wrong: another label) | "
+            "bouts with cadence within 1 % (median / max err %) | "
             "same, as steps over time | true bouts found |")
     lines = [head, "|" + "|".join(["---"] * 9) + "|"]
     for s in summary:
@@ -339,7 +346,7 @@ def _summary_lines(summary: list[dict]) -> list[str]:
             f"| {s['source']} | {s['sessions']} | {_fmt(s['activity_pct_mean'])} ({_fmt(s['activity_pct_min'])}) | "
             f"{_fmt(s['change_within_pct'], '.0f')} % of {s['change_points']} "
             f"(max {_fmt(s['change_err_max_s'])} s over those found, {s['change_missed']} not found) | "
-            f"{s['change_false']} | {_fmt(s['labels_pct'], '.0f')} % of {s['labels_n']} | "
+            f"{s['change_false']} | {_fmt(s['labels_pct'], '.0f')} % of {s['labels_n']} ({s['labels_wrong']} wrong) | "
             f"{_fmt(s['cadence_within_pct'], '.0f')} % of {s['cadence_bouts']} "
             f"({_fmt(s['cadence_err_median_pct'], '.2f')} / {_fmt(s['cadence_err_max_pct'], '.1f')}) | "
             f"{_fmt(s['cadence_steps_over_time_within_pct'], '.0f')} % | "

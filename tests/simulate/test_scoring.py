@@ -78,6 +78,16 @@ def test_segment_label_accuracy() -> None:
     assert np.isnan(segment_label_accuracy([], est)[0])
 
 
+def test_segments_labelled_otherwise_counts_wrong_labels_not_withheld_ones() -> None:
+    from walkmon.simulate.scoring import segments_labelled_otherwise
+
+    truth = [(0.0, 10.0, "normal"), (10.0, 20.0, "bend"), (25.0, 30.0, "bend"), (30.0, 40.0, "normal")]
+    est = [(0.0, 10.0, "normal"), (10.0, 20.0, "left_shoulder_down"), (25.0, 30.0, "unclassified"),
+           (30.0, 32.0, "bend")]  # the last covers 2 s of 10: not the segment's label
+    assert segments_labelled_otherwise(truth, est) == 1
+    assert segments_labelled_otherwise(truth, []) == 0
+
+
 def test_truth_cadence_skips_pauses_and_cadence_errors() -> None:
     steps = np.r_[np.arange(10) * 0.5 + 1.0, np.arange(8) * 0.6 + 10.0]  # 120 spm, pause, 100 spm
     bout = np.r_[np.zeros(10, int), np.ones(8, int)]

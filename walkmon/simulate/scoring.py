@@ -5,6 +5,7 @@ Pure functions (no I/O) on plain arrays and lists, so that any estimator can be 
 * :func:`activity_per_second` - the share of seconds whose estimated activity is the true one;
 * :func:`posture_change_errors` - how far each true posture change point is from the nearest estimated one;
 * :func:`segment_label_accuracy` - the share of true posture segments whose overlapping estimate has their label;
+* :func:`segments_labelled_otherwise` - how many of them it gives another label (a wrong label, not a withheld one);
 * :func:`cadence_errors` - each estimated bout's cadence against the true steps of its stretch, by the field's
   definition (Mobilise-D and the INDIP reference: the mean over strides of 120 / stride duration) or as steps
   over walking time.
@@ -29,6 +30,7 @@ __all__ = [
     "change_points",
     "posture_change_errors",
     "segment_label_accuracy",
+    "segments_labelled_otherwise",
     "true_posture_segments",
     "truth_cadence_between",
     "truth_stride_cadence_between",
@@ -118,6 +120,26 @@ def segment_label_accuracy(
         right += int(best[0] == label and best[1] > uncovered)
     n = len(true_segments)
     return (100.0 * right / n if n else float("nan")), n
+
+
+def segments_labelled_otherwise(
+    true_segments: Sequence[tuple[float, float, str]], est_segments: Sequence[tuple[float, float, str]],
+    withheld: Sequence[str] = ("unclassified",),
+) -> int:
+    """How many true segments the estimate gives another posture label: the label covering most of the segment's
+    time (more than the time no estimate covers) is a label, not one of ``withheld`` (no label given), and not
+    the true one. A wrong label, where :func:`segment_label_accuracy` counts a withheld one as not right too."""
+    wrong = 0
+    for a, b, label in true_segments:
+        cover: dict[str, float] = {}
+        for c, d, est in est_segments:
+            overlap = min(b, d) - max(a, c)
+            if overlap > 0:
+                cover[est] = cover.get(est, 0.0) + overlap
+        uncovered = (b - a) - sum(cover.values())
+        best = max(cover.items(), key=lambda kv: kv[1]) if cover else ("", 0.0)
+        wrong += int(best[1] > uncovered and best[0] not in (label, "", *withheld))
+    return wrong
 
 
 _TOLERANCE_S = 1e-9  # how far a float difference of times may pass a bound and still meet it
