@@ -470,3 +470,30 @@ def test_a_recording_that_starts_with_a_pick_up_keeps_the_first_frame_as_upright
                 continue
             m = (t >= g - 0.5) & (t < g + 0.5)
             assert max(abs(pitch - body[m, 0].mean()), abs(roll - body[m, 2].mean())) <= 1.5, (seed, g)
+
+
+def test_a_pause_whose_stance_reads_far_off_makes_the_walk_around_it_uncertain() -> None:
+    """The video's rotation error in turns comes and goes: on an unkind simulated session a 1.2 s pause after two
+    turns read 6.7 / -8.5 deg off the upright stance and the standing 8 s later 1.9 / -0.3 deg, which alone
+    re-referenced that stretch, so its bent walk read roll -9 deg: left shoulder down. Here the true angles of a
+    walk are off by +6 / -10 deg (pitch / roll) from a turn until shortly before the final standing: the pause
+    between reads so, too far for a drift to be taken (``max_drift_deg``), and the walk around it in that stretch
+    must carry that much doubt (it carried none), with the reason; before the turn, none."""
+    from walkmon.gait.activity import segment, signals_from_angles
+    from walkmon.gait.session import DEFAULT_SESSION_SETTINGS, _reference_model
+
+    model = GaitModel("stand:2,bend:6,turn:90,bend:6,pause:1.5,bend:6,stand:2", seed=3)
+    t = np.arange(0.0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t)
+    seg = segment(signals_from_angles(t, a))
+    turn_end = next(s.end_s for s in model.segments if s.walk == "turn")
+    off = (t > turn_end) & (t < model.segments[-1].start_s - 1.5)
+    a[off, 0] += 6.0
+    a[off, 2] -= 10.0
+    _, unc, _ = _reference_model(t, a, seg, (0.0, 2.0), DEFAULT_SESSION_SETTINGS)
+    walk_after = (t > turn_end + 1.0) & (t < model.segments[-1].start_s - 0.5)
+    walk_before = (t > 2.5) & (t < turn_end - 1.5)
+    assert np.all(unc.deg[walk_after] >= np.array([5.5, 9.5]))
+    assert np.all(unc.deg[walk_before] == 0.0)
+    assert any("pause at" in r and "+6.0 / -10.0" in r for r in unc.reasons)
+

@@ -454,7 +454,8 @@ class ReferenceUncertainty:
 
 
 def _standing_anchors(
-    t: NDArray, a: NDArray, seg: Segmentation, first: tuple[float, float], s: SessionSettings
+    t: NDArray, a: NDArray, seg: Segmentation, first: tuple[float, float], s: SessionSettings,
+    stray: list[tuple[float, float, NDArray]] | None = None,
 ) -> list[tuple[float, NDArray]]:
     """(mid time, pitch/roll of the stance minus the reference stance's) of every still phase >= ``min_anchor_s``
     (outside turns) whose stance is within ``max_drift_deg`` of the reference's: the same upright stance, so the
@@ -464,7 +465,9 @@ def _standing_anchors(
     break (< 3 s) lies inside its bout, where the activity says walking, and the still part of a 1.5-2.5 s pause
     (the closing and first steps move the trunk) lasts 0.5-1.5 s; the stance's angles need no more (the video's
     noise while still is ~0.01 deg). On the simulator's unkind sessions many stretches after a turn that were left
-    without a reference had such a pause."""
+    without a reference had such a pause. ``stray``: when given, gets ``(start, end, difference)`` of each still
+    pause in a walk (:func:`_walk_around`) whose stance is farther off (a pause that short between steps is
+    standing, not sitting: there the angles themselves are off, see :func:`_reference_model`)."""
     act = np.asarray(seg.activity)
     grid = np.asarray(seg.timeline_t_s, dtype=float)
     hop = float(grid[1] - grid[0]) if grid.size > 1 else 0.1
@@ -490,7 +493,22 @@ def _standing_anchors(
         d = np.median(a[m][:, [0, 2]], axis=0) - base
         if np.max(np.abs(d)) <= s.max_drift_deg:
             out.append((0.5 * (t0 + t1), d))
+        elif stray is not None and _walk_around(seg, t0, t1):
+            stray.append((t0, t1, d))
     return sorted(out, key=lambda v: v[0])
+
+
+def _walk_around(seg: Segmentation, t0: float, t1: float) -> list[Bout]:
+    """The walking bouts about a still pause ``[t0, t1]``: the one it lies in, or the two it lies between when
+    each is within a bout break of it (``max_break_s``, 3 s: a pause that short between steps is standing, not
+    sitting down and getting up again); empty when it is no pause in a walk."""
+    inside = [b for b in seg.bouts if b.start_s < t0 and t1 < b.end_s]
+    if inside:
+        return inside
+    brk = DEFAULT_ACTIVITY_SETTINGS.max_break_s
+    before = [b for b in seg.bouts if t0 - brk <= b.end_s <= t0]
+    after = [b for b in seg.bouts if t1 <= b.start_s <= t1 + brk]
+    return [before[-1], after[0]] if before and after else []
 
 
 def _reference_model(
@@ -515,7 +533,8 @@ def _reference_model(
     drift = np.zeros((n, 2))
     unc = np.zeros((n, 2))
     why = np.full(n, -1, dtype=np.int64)
-    anchors = _standing_anchors(t, a, seg, stand, s) if stand is not None else []
+    stray: list[tuple[float, float, NDArray]] = []
+    anchors = _standing_anchors(t, a, seg, stand, s, stray) if stand is not None else []
     if not anchors and n:
         anchors = [(float(t[0]), np.zeros(2))]
     turns = sorted(seg.turns, key=lambda u: u.start_s)
@@ -569,6 +588,26 @@ def _reference_model(
                           "cannot tell the camera's tilt on the trunk from a change of posture in it"
                           if vertical_deg > 0 else "") + ")")
         why[m] = len(reasons) - 1
+    # a pause inside a bout whose stance reads farther from the upright one than any drift taken: the video's
+    # angles there are off (the rotation's error in turns comes and goes: on a simulated session a 1.2 s pause after
+    # two turns read 6.7 / -8.5 deg off and the stance 8 s later 1.9 / -0.3 deg, so that stretch's bent walk read
+    # roll -9 deg, left shoulder down), or the wearer did not stand upright. Either way the walking of that bout in
+    # that stretch is uncertain by the pause's difference from the drift taken there
+    for p0, p1, d in stray:
+        k = int(np.searchsorted(mids, 0.5 * (p0 + p1)))
+        m = np.zeros(n, dtype=bool)
+        for b in _walk_around(seg, p0, p1):
+            m |= (stretch == k) & (t >= b.start_s) & (t <= b.end_s)
+        i = min(int(np.searchsorted(t, 0.5 * (p0 + p1))), n - 1)
+        e = np.abs(d - drift[i])
+        if not m.any() or not np.any(e > unc[i]):
+            continue
+        reasons.append(f"a pause at t={p0:.1f}-{p1:.1f} s reads {d[0]:+.1f} / {d[1]:+.1f} deg (pitch / roll) from the "
+                       f"upright stance, {e[0]:.1f} / {e[1]:.1f} deg from the drift taken there: the video's angles "
+                       "there are off, or the wearer stood bent")
+        grow = m & np.any(e[None, :] > unc, axis=1)
+        unc[m] = np.maximum(unc[m], e)
+        why[grow] = len(reasons) - 1
     return drift, ReferenceUncertainty(unc, why, tuple(reasons)), len(anchors) - 1
 
 
