@@ -497,3 +497,23 @@ def test_a_pause_whose_stance_reads_far_off_makes_the_walk_around_it_uncertain()
     assert np.all(unc.deg[walk_before] == 0.0)
     assert any("pause at" in r and "+6.0 / -10.0" in r for r in unc.reasons)
 
+
+def test_a_posture_between_two_stretches_of_another_is_its_own_segment() -> None:
+    """An unkind session (held-out seed 10 of the benchmark): left shoulder down 7.2 s, normal 6.4 s, left shoulder
+    down 7.3 s in one straight stretch. Every single split leaves each side's median in the outer posture, so
+    binary segmentation read it as one 20 s left-shoulder-down segment and labelled the normal walk so; the
+    circular binary segmentation's second look finds the normal walk between (on the true angles, so this is the
+    segmentation alone)."""
+    walk = ("mount:-16.9:0.7,lr:0.4,left_shoulder_down:6.5,pause:3.7,left_shoulder_down:7.2,normal:6.4,"
+            "left_shoulder_down:7.3,turn:180,left_shoulder_down:4.8")
+    model = GaitModel(walk, seed=10)
+    t = np.arange(0.0, model.duration_s, 1 / FPS)
+    doc = analyze_session(t, model.truth_angles_deg(t)).indicators.to_dict()
+    normal = next(s for s in model.segments if s.walk == "normal")
+    found = [s for s in doc["segments"] if s["label"] == "normal"]
+    assert len(found) == 1
+    assert found[0]["start_s"] == pytest.approx(normal.start_s, abs=1.5)
+    assert found[0]["end_s"] == pytest.approx(normal.end_s, abs=1.5)
+    for s in doc["segments"]:  # the left-shoulder-down walk either side keeps its label
+        if s["end_s"] < normal.start_s - 1.0 or s["start_s"] > normal.end_s + 1.0:
+            assert s["label"] in ("left_shoulder_down", "unclassified")

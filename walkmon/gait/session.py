@@ -708,7 +708,8 @@ def change_limits(s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> NDArray[np.f
 def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> list[float]:
     """Split times of a piece: binary segmentation of :func:`posture_features` (a split where the two sides'
     medians differ by ``change_pitch_deg`` in pitch, ``change_roll_deg`` in roll or a factor
-    ``change_swing_ratio`` in sway)."""
+    ``change_swing_ratio`` in sway); where no one split does, the circular binary segmentation's look for a
+    segment that differs from the rest (two splits: a posture between two stretches of another)."""
     if t.size < 4:
         return []
     fs = sampling_rate_hz(t)
@@ -735,6 +736,31 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
             out.append(float(t[best_k]))
             split(i0, best_k)
             split(best_k, i1)
+            return
+        # no one split: a posture between two stretches of another (left shoulder down, normal, left shoulder
+        # down again) leaves each side's median in the outer posture, whichever split is tried. The circular
+        # binary segmentation's second look (Olshen et al. 2004, Biostatistics 5(4) 557-572): the segment whose
+        # mean differs most from the rest, with at least min_segment_s inside and on each side of it
+        if n < 3 * n_min:
+            return
+        c = np.vstack([np.zeros((1, x.shape[1])), csum])
+        k1 = ks[:, None]
+        k2 = ks[None, :]
+        m = (k2 - k1).astype(float)
+        ok = m >= n_min
+        if not ok.any():
+            return
+        inner = np.abs(c[k2] - c[k1]) / np.sqrt(np.maximum(m * (n - m) / n, 1e-9))[..., None]
+        score = np.where(ok, inner.max(axis=2), -np.inf)
+        a1, a2 = np.unravel_index(int(np.argmax(score)), score.shape)
+        j1, j2 = i0 + int(ks[a1]), i0 + int(ks[a2])
+        outside = np.concatenate([slow[i0:j1], slow[j2:i1]])
+        d = np.abs(np.median(slow[j1:j2], axis=0) - np.median(outside, axis=0)) / limits
+        if float(d.max()) >= 1.0:
+            out.extend([float(t[j1]), float(t[j2])])
+            split(i0, j1)
+            split(j1, j2)
+            split(j2, i1)
 
     split(0, t.size)
     return sorted(out)
