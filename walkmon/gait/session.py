@@ -705,6 +705,9 @@ def change_limits(s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> NDArray[np.f
     return np.array([s.change_pitch_deg, s.change_roll_deg, math.log(s.change_swing_ratio)])
 
 
+_CBS_CANDIDATES = 300  # split positions per end in change_points' search for a segment (pairs: its square)
+
+
 def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_SETTINGS) -> list[float]:
     """Split times of a piece: binary segmentation of :func:`posture_features` (a split where the two sides'
     medians differ by ``change_pitch_deg`` in pitch, ``change_roll_deg`` in roll or a factor
@@ -744,16 +747,26 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
         if n < 3 * n_min:
             return
         c = np.vstack([np.zeros((1, x.shape[1])), csum])
-        k1 = ks[:, None]
-        k2 = ks[None, :]
-        m = (k2 - k1).astype(float)
-        ok = m >= n_min
-        if not ok.any():
+
+        def best_pair(c1: NDArray, c2: NDArray) -> tuple[int, int, float]:
+            m = (c2[None, :] - c1[:, None]).astype(float)
+            inner = np.abs(c[c2][None, :, :] - c[c1][:, None, :]).max(axis=2)
+            score = np.where(m >= n_min, inner / np.sqrt(np.maximum(m * (n - m) / n, 1e-9)), -np.inf)
+            a1, a2 = np.unravel_index(int(np.argmax(score)), score.shape)
+            return int(c1[a1]), int(c2[a2]), float(score[a1, a2])
+
+        # candidates at most _CBS_CANDIDATES apart on a long piece (the pairs grow as their square: a 10-minute
+        # straight walk has 6000 positions 0.1 s apart), then each end refined at 0.1 s about the best pair
+        step = max(1, int(np.ceil(ks.size / _CBS_CANDIDATES)))
+        k1, k2, score = best_pair(ks[::step], ks[::step])
+        if not np.isfinite(score):
             return
-        inner = np.abs(c[k2] - c[k1]) / np.sqrt(np.maximum(m * (n - m) / n, 1e-9))[..., None]
-        score = np.where(ok, inner.max(axis=2), -np.inf)
-        a1, a2 = np.unravel_index(int(np.argmax(score)), score.shape)
-        j1, j2 = i0 + int(ks[a1]), i0 + int(ks[a2])
+        if step > 1:
+            near1, near2 = ks[np.abs(ks - k1) <= step * (ks[1] - ks[0])], ks[np.abs(ks - k2) <= step * (ks[1] - ks[0])]
+            k1, k2, score = best_pair(near1, near2)
+            if not np.isfinite(score):
+                return
+        j1, j2 = i0 + k1, i0 + k2
         outside = np.concatenate([slow[i0:j1], slow[j2:i1]])
         d = np.abs(np.median(slow[j1:j2], axis=0) - np.median(outside, axis=0)) / limits
         if float(d.max()) >= 1.0:
