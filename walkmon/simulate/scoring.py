@@ -107,17 +107,7 @@ def segment_label_accuracy(
 ) -> tuple[float, int]:
     """``(percent right, segments scored)``: a true segment is right when the estimated label covering most of
     its time is its own label (time covered by no estimate counts for no label)."""
-    right = 0
-    for a, b, label in true_segments:
-        cover: dict[str, float] = {}
-        for c, d, est in est_segments:
-            overlap = min(b, d) - max(a, c)
-            if overlap > 0:
-                cover[est] = cover.get(est, 0.0) + overlap
-        covered = sum(cover.values())
-        uncovered = (b - a) - covered
-        best = max(cover.items(), key=lambda kv: kv[1]) if cover else ("", 0.0)
-        right += int(best[0] == label and best[1] > uncovered)
+    right = sum(int(_covering_label(a, b, est_segments) == label) for a, b, label in true_segments)
     n = len(true_segments)
     return (100.0 * right / n if n else float("nan")), n
 
@@ -129,17 +119,20 @@ def segments_labelled_otherwise(
     """How many true segments the estimate gives another posture label: the label covering most of the segment's
     time (more than the time no estimate covers) is a label, not one of ``withheld`` (no label given), and not
     the true one. A wrong label, where :func:`segment_label_accuracy` counts a withheld one as not right too."""
-    wrong = 0
-    for a, b, label in true_segments:
-        cover: dict[str, float] = {}
-        for c, d, est in est_segments:
-            overlap = min(b, d) - max(a, c)
-            if overlap > 0:
-                cover[est] = cover.get(est, 0.0) + overlap
-        uncovered = (b - a) - sum(cover.values())
-        best = max(cover.items(), key=lambda kv: kv[1]) if cover else ("", 0.0)
-        wrong += int(best[1] > uncovered and best[0] not in (label, "", *withheld))
-    return wrong
+    return sum(int(_covering_label(a, b, est_segments) not in (label, "", *withheld)) for a, b, label in true_segments)
+
+
+def _covering_label(a: float, b: float, est_segments: Sequence[tuple[float, float, str]]) -> str:
+    """The estimated label covering most of ``[a, b]``, when it covers more than the time no estimate covers;
+    else ``""``."""
+    cover: dict[str, float] = {}
+    for c, d, est in est_segments:
+        overlap = min(b, d) - max(a, c)
+        if overlap > 0:
+            cover[est] = cover.get(est, 0.0) + overlap
+    uncovered = (b - a) - sum(cover.values())
+    best = max(cover.items(), key=lambda kv: kv[1]) if cover else ("", 0.0)
+    return best[0] if best[1] > uncovered else ""
 
 
 _TOLERANCE_S = 1e-9  # how far a float difference of times may pass a bound and still meet it
