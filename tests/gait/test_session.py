@@ -542,3 +542,21 @@ def test_the_search_for_a_segment_stays_small_on_a_long_straight_walk() -> None:
     assert len(cps) == 2
     assert cps[0] == pytest.approx(normal.start_s, abs=1.5) and cps[1] == pytest.approx(normal.end_s, abs=1.5)
     assert peak < 200e6
+
+
+@pytest.mark.parametrize(("script", "seed", "walk"), [
+    ("stand:2,normal:12,sit:8,normal:12,stand:2", 3, "normal"),
+    ("stand:2,left_shoulder_down:12,pickup:3,left_shoulder_down:12,stand:2", 4, "left_shoulder_down"),
+    ("stand:2,normal:8,turn:90,normal:8,sit:8,normal:8,stand:2", 5, "normal"),
+])
+def test_sitting_or_picking_up_between_walks_is_a_posture_not_the_videos_error(script: str, seed: int, walk: str) -> None:
+    """A still phase far from upright beside walking is not a pause whose stance reads off: sitting reads 22-35
+    deg and a pick-up 45-75 deg, a posture, and before any turn no turn's error can come and go. On the true
+    angles (no video error at all) the walks either side keep their labels (the first form of the rule made them
+    all unclassified, with 25-45 deg of doubt)."""
+    model = GaitModel(script, seed=seed)
+    t = np.arange(0.0, model.duration_s, 1 / FPS)
+    doc = analyze_session(t, model.truth_angles_deg(t)).indicators.to_dict()
+    labelled = [s for s in doc["segments"] if s["label"] != "unclassified"]
+    assert {s["label"] for s in labelled} == {walk}
+    assert not any("a pause at" in r for s in doc["segments"] for r in s["reasons"])

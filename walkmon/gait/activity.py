@@ -816,7 +816,7 @@ def _without_ringing(st: NDArray[np.float64], sig: TrunkSignals, s: ActivitySett
             return st[:0]
         near = np.clip(np.searchsorted(tops, st), 1, tops.size - 1)
         gap = np.minimum(np.abs(tops[near] - st), np.abs(tops[near - 1] - st))
-        keep &= gap <= s.ringing_peak_s
+        keep &= gap <= s.ringing_peak_s + DURATION_TOLERANCE_S  # 5 samples at 50 Hz is 0.1 s, whatever t is
     return st[keep]
 
 

@@ -466,8 +466,10 @@ def _standing_anchors(
     (the closing and first steps move the trunk) lasts 0.5-1.5 s; the stance's angles need no more (the video's
     noise while still is ~0.01 deg). On the simulator's unkind sessions many stretches after a turn that were left
     without a reference had such a pause. ``stray``: when given, gets ``(start, end, difference)`` of each still
-    pause in a walk (:func:`_walk_around`) whose stance is farther off (a pause that short between steps is
-    standing, not sitting: there the angles themselves are off, see :func:`_reference_model`)."""
+    pause in a walk (:func:`_walk_around`; the pause itself no longer than a bout break, 3 s) whose stance is
+    farther off, but within twice ``max_drift_deg``: a stance that close to upright, that briefly, between steps,
+    is standing, so the angles themselves are off there (see :func:`_reference_model`). Sitting (22-35 deg on the
+    simulator) or picking something up (45-75 deg) is a posture, not the video's error."""
     act = np.asarray(seg.activity)
     grid = np.asarray(seg.timeline_t_s, dtype=float)
     hop = float(grid[1] - grid[0]) if grid.size > 1 else 0.1
@@ -493,9 +495,13 @@ def _standing_anchors(
         d = np.median(a[m][:, [0, 2]], axis=0) - base
         if np.max(np.abs(d)) <= s.max_drift_deg:
             out.append((0.5 * (t0 + t1), d))
-        elif stray is not None and _walk_around(seg, t0, t1):
+        elif (stray is not None and t1 - t0 <= DEFAULT_ACTIVITY_SETTINGS.max_break_s
+              and np.max(np.abs(d)) <= 2.0 * s.max_drift_deg and _walk_around(seg, t0, t1)):
             stray.append((t0, t1, d))
     return sorted(out, key=lambda v: v[0])
+
+
+STRAY_PAUSE = "a pause at"  # how the reason of a pause whose stance reads off begins (_reference_model)
 
 
 def _walk_around(seg: Segmentation, t0: float, t1: float) -> list[Bout]:
@@ -588,24 +594,27 @@ def _reference_model(
                           "cannot tell the camera's tilt on the trunk from a change of posture in it"
                           if vertical_deg > 0 else "") + ")")
         why[m] = len(reasons) - 1
-    # a pause inside a bout whose stance reads farther from the upright one than any drift taken: the video's
-    # angles there are off (the rotation's error in turns comes and goes: on a simulated session a 1.2 s pause after
-    # two turns read 6.7 / -8.5 deg off and the stance 8 s later 1.9 / -0.3 deg, so that stretch's bent walk read
-    # roll -9 deg, left shoulder down), or the wearer did not stand upright. Either way the walking of that bout in
-    # that stretch is uncertain by the pause's difference from the drift taken there
+    # a pause in a walk, after a turn, whose stance reads farther from the upright one than any drift taken: the
+    # video's angles there are off (the rotation's error in turns comes and goes: on a simulated session a 1.2 s
+    # pause after two turns read 6.7 / -8.5 deg off and the stance 8 s later 1.9 / -0.3 deg, so that stretch's bent
+    # walk read roll -9 deg, left shoulder down), or the wearer did not stand upright. Either way the walking of
+    # the bouts about it in that stretch is uncertain by the pause's difference from the drift taken there
+    k_ref = int(np.searchsorted(mids, 0.5 * (stand[0] + stand[1]))) if stand is not None else 0
     for p0, p1, d in stray:
         k = int(np.searchsorted(mids, 0.5 * (p0 + p1)))
+        if k == k_ref:  # no turn between the pause and the upright stance: no turn's error to come and go
+            continue
         m = np.zeros(n, dtype=bool)
         for b in _walk_around(seg, p0, p1):
             m |= (stretch == k) & (t >= b.start_s) & (t <= b.end_s)
         i = min(int(np.searchsorted(t, 0.5 * (p0 + p1))), n - 1)
         e = np.abs(d - drift[i])
-        if not m.any() or not np.any(e > unc[i]):
-            continue
-        reasons.append(f"a pause at t={p0:.1f}-{p1:.1f} s reads {d[0]:+.1f} / {d[1]:+.1f} deg (pitch / roll) from the "
-                       f"upright stance, {e[0]:.1f} / {e[1]:.1f} deg from the drift taken there: the video's angles "
-                       "there are off, or the wearer stood bent")
         grow = m & np.any(e[None, :] > unc, axis=1)
+        if not grow.any():
+            continue
+        reasons.append(f"{STRAY_PAUSE} t={p0:.1f}-{p1:.1f} s reads {d[0]:+.1f} / {d[1]:+.1f} deg (pitch / roll) from "
+                       f"the upright stance, {e[0]:.1f} / {e[1]:.1f} deg from the drift taken there: the video's "
+                       "angles there are off after the turn, or the wearer stood leaning")
         unc[m] = np.maximum(unc[m], e)
         why[grow] = len(reasons) - 1
     return drift, ReferenceUncertainty(unc, why, tuple(reasons)), len(anchors) - 1
@@ -634,8 +643,12 @@ def _rereference(
     if n_re:
         note = (f"; re-referenced at {n_re} later still phase{'s' if n_re > 1 else ''} (drift up to "
                 f"{np.max(np.abs(drift[:, 0])):.1f} / {np.max(np.abs(drift[:, 1])):.1f} deg pitch / roll removed)")
-    if unc.reasons:
-        note += f"; uncertain in {len(unc.reasons)} straight stretch{'es' if len(unc.reasons) > 1 else ''} after turns"
+    n_turn = sum(1 for r in unc.reasons if not r.startswith(STRAY_PAUSE))
+    if n_turn:
+        note += f"; uncertain in {n_turn} straight stretch{'es' if n_turn > 1 else ''} after turns"
+    if len(unc.reasons) > n_turn:
+        k = len(unc.reasons) - n_turn
+        note += f"; uncertain about {k} pause{'s' if k > 1 else ''} after turns whose stance reads off"
     return out, note, unc
 
 
