@@ -549,7 +549,8 @@ def test_the_search_for_a_segment_stays_small_on_a_long_straight_walk() -> None:
     ("stand:2,left_shoulder_down:12,pickup:3,left_shoulder_down:12,stand:2", 4, "left_shoulder_down"),
     ("stand:2,normal:8,turn:90,normal:8,sit:8,normal:8,stand:2", 5, "normal"),
 ])
-def test_sitting_or_picking_up_between_walks_is_a_posture_not_the_videos_error(script: str, seed: int, walk: str) -> None:
+def test_sitting_or_picking_up_between_walks_is_a_posture_not_the_videos_error(
+        script: str, seed: int, walk: str) -> None:
     """A still phase far from upright beside walking is not a pause whose stance reads off: sitting reads 22-35
     deg and a pick-up 45-75 deg, a posture, and before any turn no turn's error can come and go. On the true
     angles (no video error at all) the walks either side keep their labels (the first form of the rule made them
