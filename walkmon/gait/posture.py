@@ -169,7 +169,7 @@ def alternation(values: Any, min_pairs: int = 3) -> dict[str, float]:
 
 #: Steps per block of :func:`fit_step_time_alternation`'s pace model (about 10 s of walking): a walker's pace
 #: drifts, and in the step times the drift adds up, which one quadratic over a long stretch cannot follow (a
-#: synthetic limp of ratio 1.12 under a slowly drifting pace, 160 steps in one piece: found 28 % of the time;
+#: synthetic limp of ratio 1.12 under a slowly drifting pace, 160 steps in one piece: found 31 % of the time;
 #: in blocks of 12-24 steps, 100 %; up to 20 steps nothing changes)
 STEP_TIME_BLOCK_STEPS = 20
 

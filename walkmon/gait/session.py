@@ -455,7 +455,7 @@ class ReferenceUncertainty:
 
 def _standing_anchors(
     t: NDArray, a: NDArray, seg: Segmentation, first: tuple[float, float], s: SessionSettings,
-    stray: list[tuple[float, float, NDArray]] | None = None,
+    stray: list[tuple[float, float, NDArray, list[Bout]]] | None = None,
 ) -> list[tuple[float, NDArray]]:
     """(mid time, pitch/roll of the stance minus the reference stance's) of every still phase >= ``min_anchor_s``
     (outside turns) whose stance is within ``max_drift_deg`` of the reference's: the same upright stance, so the
@@ -465,11 +465,11 @@ def _standing_anchors(
     break (< 3 s) lies inside its bout, where the activity says walking, and the still part of a 1.5-2.5 s pause
     (the closing and first steps move the trunk) lasts 0.5-1.5 s; the stance's angles need no more (the video's
     noise while still is ~0.01 deg). On the simulator's unkind sessions many stretches after a turn that were left
-    without a reference had such a pause. ``stray``: when given, gets ``(start, end, difference)`` of each still
-    pause in a walk (:func:`_walk_around`; the pause itself no longer than a bout break, 3 s) whose stance is
-    farther off, but within twice ``max_drift_deg``: a stance that close to upright, that briefly, between steps,
-    is standing, so the angles themselves are off there (see :func:`_reference_model`). Sitting (22-35 deg on the
-    simulator) or picking something up (45-75 deg) is a posture, not the video's error."""
+    without a reference had such a pause. ``stray``: when given, gets ``(start, end, difference, bouts about it)``
+    of each still pause in a walk (:func:`_walk_around`; the pause itself no longer than a bout break, 3 s) whose
+    stance is farther off, but within twice ``max_drift_deg``: a stance that close to upright, that briefly,
+    between steps, is standing, so the angles themselves are off there (see :func:`_reference_model`). Sitting
+    (22-35 deg on the simulator) or picking something up (45-75 deg) is a posture, not the video's error."""
     act = np.asarray(seg.activity)
     grid = np.asarray(seg.timeline_t_s, dtype=float)
     hop = float(grid[1] - grid[0]) if grid.size > 1 else 0.1
@@ -496,8 +496,8 @@ def _standing_anchors(
         if np.max(np.abs(d)) <= s.max_drift_deg:
             out.append((0.5 * (t0 + t1), d))
         elif (stray is not None and t1 - t0 <= DEFAULT_ACTIVITY_SETTINGS.max_break_s
-              and np.max(np.abs(d)) <= 2.0 * s.max_drift_deg and _walk_around(seg, t0, t1)):
-            stray.append((t0, t1, d))
+              and np.max(np.abs(d)) <= 2.0 * s.max_drift_deg and (around := _walk_around(seg, t0, t1))):
+            stray.append((t0, t1, d, around))
     return sorted(out, key=lambda v: v[0])
 
 
@@ -539,7 +539,7 @@ def _reference_model(
     drift = np.zeros((n, 2))
     unc = np.zeros((n, 2))
     why = np.full(n, -1, dtype=np.int64)
-    stray: list[tuple[float, float, NDArray]] = []
+    stray: list[tuple[float, float, NDArray, list[Bout]]] = []
     anchors = _standing_anchors(t, a, seg, stand, s, stray) if stand is not None else []
     if not anchors and n:
         anchors = [(float(t[0]), np.zeros(2))]
@@ -600,12 +600,12 @@ def _reference_model(
     # walk read roll -9 deg, left shoulder down), or the wearer did not stand upright. Either way the walking of
     # the bouts about it in that stretch is uncertain by the pause's difference from the drift taken there
     k_ref = int(np.searchsorted(mids, 0.5 * (stand[0] + stand[1]))) if stand is not None else 0
-    for p0, p1, d in stray:
+    for p0, p1, d, around in stray:
         k = int(np.searchsorted(mids, 0.5 * (p0 + p1)))
         if k == k_ref:  # no turn between the pause and the upright stance: no turn's error to come and go
             continue
         m = np.zeros(n, dtype=bool)
-        for b in _walk_around(seg, p0, p1):
+        for b in around:
             m |= (stretch == k) & (t >= b.start_s) & (t <= b.end_s)
         i = min(int(np.searchsorted(t, 0.5 * (p0 + p1))), n - 1)
         e = np.abs(d - drift[i])
@@ -775,8 +775,8 @@ def change_points(t: NDArray, a: NDArray, s: SessionSettings = DEFAULT_SESSION_S
         if not np.isfinite(score):
             return
         if step > 1:
-            near1, near2 = ks[np.abs(ks - k1) <= step * (ks[1] - ks[0])], ks[np.abs(ks - k2) <= step * (ks[1] - ks[0])]
-            k1, k2, score = best_pair(near1, near2)
+            reach = step * (ks[1] - ks[0])
+            k1, k2, score = best_pair(ks[np.abs(ks - k1) <= reach], ks[np.abs(ks - k2) <= reach])
             if not np.isfinite(score):
                 return
         j1, j2 = i0 + k1, i0 + k2
@@ -1203,14 +1203,15 @@ def _pooled_alternation(
     from walkmon.gait.posture import fit_step_time_alternation, step_time_evidence, step_time_intervals
 
     rows: list[tuple[int, float, float, float, int]] = []  # per step: (stretch, index in bout, side, time, group)
+    # a pause: an interval beyond 1.6 x its bout's median step
+    long = {k: 1.6 * float(np.median(np.diff(bout_steps[k]))) if len(bout_steps[k]) > 1 else float("inf")
+            for k in set(span_bouts)}
     group = 0
     for j, (q0, q1) in enumerate(spans):
         steps = bout_steps[span_bouts[j]]
         if j > 0:
-            d_all = np.diff(steps)
-            long = 1.6 * float(np.median(d_all)) if d_all.size else float("inf")
             between = steps[(steps >= spans[j - 1][1] - 1e-6) & (steps <= q0 + 1e-6)]
-            if span_bouts[j - 1] != span_bouts[j] or between.size < 2 or np.any(np.diff(between) > long):
+            if span_bouts[j - 1] != span_bouts[j] or between.size < 2 or np.any(np.diff(between) > long[span_bouts[j]]):
                 group += 1  # a pause, another bout (or no step seen) before the stretch: the leading foot is unknown
         st = steady[(steady >= q0) & (steady <= q1)]
         idx = np.searchsorted(steps, st - 1e-6)
