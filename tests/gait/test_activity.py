@@ -617,6 +617,65 @@ def test_a_sensor_spun_by_hand_is_no_walk_or_turn(synthetic_imu) -> None:
     assert seg.bouts[0].end_s < 9.0 and seg.bouts[1].start_s > 13.0  # the spin ramps up and down over ~1 s
 
 
+def _turned_about_x(imu, total_deg: float):
+    """``imu``'s samples as a sensor turned about its x axis from 0 to ``total_deg`` at an even rate over the
+    recording: (acc, gyro) in the turning sensor's axes."""
+    rate = np.radians(total_deg) / imu.t[-1]
+    ang = rate * imu.t
+    c, s = np.cos(ang), np.sin(ang)
+
+    def turn(v: np.ndarray) -> np.ndarray:  # each row into the axes of a sensor turned by ang about x
+        return np.column_stack([v[:, 0], c * v[:, 1] + s * v[:, 2], -s * v[:, 1] + c * v[:, 2]])
+
+    gyr = turn(imu.gyr)
+    gyr[:, 0] += rate
+    return turn(imu.acc), gyr
+
+
+@pytest.mark.parametrize("kind", ["imu", "acc"])
+def test_a_bouncing_sensor_turned_over_slowly_is_no_walk(synthetic_imu, kind: str) -> None:
+    """A step rhythm for 40 s from a sensor that turns over by 150 deg meanwhile, 3.75 deg/s: 5.6 deg in any
+    1.5 s, far below the handling rule's 45, so before the tilt test all 40 s read as one bout of walking. No
+    trunk walks while its tilt sweeps 150 deg (a hand turning a bouncing phone over): gravity lies more than 45
+    deg from its median direction over the bout for 40 % of the time. No bout."""
+    imu = synthetic_imu([("walk", 40.0)], seed=4)
+    acc, gyr = _turned_about_x(imu, 150.0)
+    seg = segment(signals_from_imu(imu.t, acc, None if kind == "acc" else gyr))
+    assert seg.bouts == ()
+    assert seg.walking_s == 0.0
+
+
+@pytest.mark.parametrize("kind", ["imu", "acc"])
+def test_a_walker_stooping_slowly_still_walks(synthetic_imu, kind: str) -> None:
+    """The same walk whose trunk leans 30 deg further forward over its 40 s (a walker tiring into a stoop):
+    its tilt stays within 15 deg of its median direction, and the walk is one bout with every true step."""
+    imu = synthetic_imu([("walk", 40.0)], seed=4)
+    acc, gyr = _turned_about_x(imu, 30.0)
+    seg = segment(signals_from_imu(imu.t, acc, None if kind == "acc" else gyr))
+    assert len(seg.bouts) == 1
+    (b,) = seg.bouts
+    assert b.start_s == pytest.approx(imu.bouts[0][0], abs=0.6)
+    assert b.end_s == pytest.approx(imu.bouts[0][1], abs=0.6)
+    assert b.cadence_spm == pytest.approx(60.0 / 0.55, rel=0.01)
+
+
+@pytest.mark.skipif(not (DATA / "broad").is_dir(), reason="shared real data not present")
+@pytest.mark.parametrize(("trial", "before_s"), [("03_undisturbed_slow_rotation_C", 85.0),
+                                                 ("24_disturbed_tapping_A", 91.4)])
+def test_real_hand_held_slow_rotations_are_no_walk(trial: str, before_s: float) -> None:
+    """Real data (BROAD, Laidig, Caruso, Cereatti, Seel 2021, CC BY 4.0): an IMU turned over slowly by hand, and
+    one turned while tapped; nobody walks in either. Their rhythm read as 85.0 and 91.4 s of walking from the IMU
+    (four bouts each) before the tilt test; bouts whose gravity swept 60-137 deg from its median direction a
+    quarter of the time. Now at most one short bout is left (3.8 s: four 'steps' held still)."""
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(DATA / "broad" / f"{trial}.hdf5", "r") as f:
+        rate = float(f.attrs["sampling_rate"])
+        acc, gyr = np.asarray(f["imu_acc"]), np.asarray(f["imu_gyr"])
+    seg = segment(signals_from_imu(np.arange(len(acc)) / rate, acc, gyr))
+    assert seg.walking_s < 0.1 * before_s, [(b.start_s, b.end_s) for b in seg.bouts]
+    assert len(seg.bouts) <= 1
+
+
 def test_tilt_change_across_gravity_not_about_it() -> None:
     """The gyro's rotation across gravity is the tilt change (30 deg/s for 1.5 s: 45 deg); a turn about gravity
     at 120 deg/s is none; with an accelerometer alone, gravity's direction turning at 30 deg/s gives 45 deg."""

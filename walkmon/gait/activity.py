@@ -53,7 +53,9 @@ Processing (:func:`segment`):
    gyroscope's angular rate has an RMS over that window above ``spin_deg_s`` (faster than a trunk turns): steps
    there are dropped, and so are the few steps such a stretch cuts off a bout's ends and a lone edge step just beside it
    (:func:`_without_handled_edges`); inside a bout the stretch is a pause (shorter than ``max_break_s`` it joins, as
-   above).
+   above). A sensor turned over more slowly than that is caught per bout: an IMU's or accelerometer's bout whose
+   gravity direction lies more than ``reorient_deg`` from its median direction for more than a quarter of its
+   time is no walk (:func:`_tilt_wanders`).
 7. **Timeline** at ``hop_s``: ``turning`` inside turns, ``walking`` inside bouts, ``standing`` where the trunk
    is still (step-signal RMS, or the raw signal's spread, and, with a gyro, angular rate below the standing
    limits; :func:`_still_samples`) and ``unknown`` otherwise (moving without a gait rhythm: sitting down,
@@ -101,6 +103,11 @@ ACTIVITIES = ("standing", "walking", "turning", "unknown")
 G = 9.80665
 STILL_WINDOW_S = 1.0  # the standing test's window (:func:`_still_samples`), s
 
+
+#: The share of a bout's time (outside handled stretches) that gravity's direction may spend more than
+#: ``reorient_deg`` from its median direction over the bout; beyond it the bout is a sensor turned by hand
+#: (:func:`_tilt_wanders`): a quarter, so a short bend or a pick-up the handling rule missed is no reason
+TILT_WANDER_FRACTION = 0.25
 
 #: How far a difference of times (s) may pass a bound and still meet it: steps found on a sample grid make strides
 #: of exactly 3.00 s, which a float difference reads as 3.0000000000000004 (10.8 - 7.8), and the 3.0 s bound
@@ -241,6 +248,9 @@ class TrunkSignals:
     #: acceleration vector in m/s², or a camera's pitch and roll in degrees), for the standing test
     #: (:func:`_still_samples`); None: not measured
     spread: NDArray[np.float64] | None = None
+    #: gravity's direction in the sensor per sample, (N,3) unit vectors pointing up (:func:`gravity_direction`),
+    #: for the bouts' tilt test (:func:`_tilt_wanders`); None: not measured (camera angles)
+    gravity_up: NDArray[np.float64] | None = None
 
     @property
     def rate_hz(self) -> float:
@@ -447,7 +457,7 @@ def signals_from_imu(
     tilt = np.degrees(np.column_stack([np.arcsin(np.clip(up[:, 2], -1, 1)), np.arcsin(np.clip(up[:, 0], -1, 1))]))
     change = tilt_change_deg(acc_u, None if gyr is None else gyr_u, fs, settings.reorient_window_s)
     return TrunkSignals(grid, vertical, heading, "imu" if gyr is not None else "acc", gnorm, tilt,
-                        tilt_change_deg=change, spread=_window_range(acc_u, fs, STILL_WINDOW_S),
+                        tilt_change_deg=change, spread=_window_range(acc_u, fs, STILL_WINDOW_S), gravity_up=up,
                         **_gap_fields(t, grid, settings))
 
 
@@ -885,10 +895,41 @@ def bouts_from_steps(
             # but within that (1.1-1.5 s: 40-55 steps/min, a very slow walker) the bout stays, without a
             # cadence; so does a camera's, whose pitch may repeat per stride
             continue
+        if _tilt_wanders(g, sig, handled, settings):
+            continue
         cadence = cadence_from_steps(g, settings, mend=mend)
         out.append(Bout(float(g[0]), float(g[-1]), tuple(float(v) for v in g), cadence,
                         _spectral_cadence(sig, float(g[0]), float(g[-1]), settings)))
     return tuple(out)
+
+
+def _tilt_wanders(
+    g: NDArray[np.float64], sig: TrunkSignals | None, handled: NDArray[np.bool_] | None, s: ActivitySettings,
+) -> bool:
+    """Whether gravity's direction in the sensor lies more than ``reorient_deg`` from its median direction over the
+    bout (steps ``g``) for more than ``TILT_WANDER_FRACTION`` of the bout's time outside handled stretches: a sensor
+    turned over slowly by hand (its rhythm read as steps), not a trunk that walks. The fast turns of handling
+    (the ``reorient_window_s`` rule) drop their own steps; a rotation slower than that, whose tilt spreads less
+    than ``reorient_deg`` in any 1.5 s, passed: BROAD's slow hand-held rotations and its tapped sensor read as
+    211 s of walking in 14 bouts (26-64 deg from their median direction half the time, 60-137 deg a quarter of
+    it). A walking trunk's tilt stays near its median: on the Mobilise-D lower-back recordings (turns, a course's
+    sitting and standing between bouts) and the simulated unkind sessions (bends, pick-ups, sitting), at most
+    7.8 deg half of a bout's time and 17.1 deg three quarters of it, so the test leaves those unchanged.
+    From an IMU or an accelerometer (``gravity_up``); a camera's angles have no gravity of their own."""
+    if sig is None or sig.gravity_up is None or g.size == 0:
+        return False
+    i0, i1 = np.searchsorted(sig.t_s, [g[0], g[-1]])
+    up = sig.gravity_up[i0:i1 + 1]
+    if handled is not None:
+        up = up[~handled[i0:i1 + 1]]
+    if len(up) == 0:
+        return False
+    mid = np.median(up, axis=0)
+    norm = float(np.linalg.norm(mid))
+    if norm < 1e-9:
+        return True  # pointing every way: no direction of its own
+    off = np.degrees(np.arccos(np.clip(up @ (mid / norm), -1.0, 1.0)))
+    return bool(np.mean(off > s.reorient_deg) > TILT_WANDER_FRACTION)
 
 
 def _step_amplitudes(st: NDArray[np.float64], sig: TrunkSignals | None, s: ActivitySettings) -> NDArray[np.float64]:
