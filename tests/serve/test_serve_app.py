@@ -211,6 +211,13 @@ def test_missing_database_and_bad_requests_are_clear(tmp_path: Path, db: Path) -
     assert c.get("/api/sessions/99").status_code == 404
     assert c.get("/sessions/99").status_code == 404
     assert c.get("/api/history?since=yesterday").status_code == 400
+    # beyond the calendar and beyond SQLite's integers (user review: both were a 500 with a traceback)
+    for since in ("1000000d", "99999999999d", "1e9"):
+        r = c.get(f"/api/history?since={since}")
+        assert r.status_code == 200 and len(r.json()["days"]) >= 1, since
+        assert c.get(f"/history.csv?since={since}").status_code == 200
+    assert c.get("/api/sessions/99999999999999999999").status_code == 404
+    assert c.get("/sessions/99999999999999999999/report").status_code == 404
 
 
 def test_a_taken_port_is_one_line(python_cmd: list[str], db: Path) -> None:

@@ -3,6 +3,7 @@ summary and the timeline come from the stored hops and alerts; the paper's table
 
 from __future__ import annotations
 
+import datetime as _dt
 import re
 import subprocess
 from pathlib import Path
@@ -86,6 +87,17 @@ def test_since_spans(since: str, days: float) -> None:
     assert parse_since(since).total_seconds() == pytest.approx(days * 86400)
     with pytest.raises(ValueError, match="positive span"):
         parse_since("-" + since)
+
+
+@pytest.mark.parametrize("since", ["1000000d", "99999999999d", "1e9", "1e300w"])
+def test_a_span_beyond_the_calendar_is_all_of_history(since: str) -> None:
+    """A span longer than any history (user review: 'now - span' overflowed, a traceback from 'walkmon history')
+    is all of it: a century."""
+    from walkmon.views.history import MAX_SINCE_DAYS, parse_since
+
+    span = parse_since(since)
+    assert span.days == MAX_SINCE_DAYS
+    assert _dt.datetime.now(_dt.UTC) - span < _dt.datetime(1930, 1, 1, tzinfo=_dt.UTC)
 
 
 def test_the_timeline_curve_breaks_at_a_gap_of_the_recording() -> None:

@@ -31,6 +31,7 @@ from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from walkmon.errors import InvalidInputError
+from walkmon.live.session_log import MAX_SESSION_ID
 from walkmon.serve.store import Store
 from walkmon.views import svg, words
 from walkmon.views.history import SessionStats, csv_rows, daily, parse_since
@@ -134,7 +135,11 @@ def create_app(data_dir: Any, *, token: str = "", bound_host: str = "127.0.0.1")
     store = Store(data_dir)
 
     def session_id(request: Request) -> int:
-        return int(request.path_params["session_id"])
+        value = int(request.path_params["session_id"])
+        if not 1 <= value <= MAX_SESSION_ID:  # beyond SQLite's integers: no such session (a query there raised: 500)
+            msg = f"no session {value} in the database"
+            raise InvalidInputError(msg)
+        return value
 
     def period(request: Request) -> tuple[str, _dt.timedelta, str | None]:
         since = request.query_params.get("since") or "30d"

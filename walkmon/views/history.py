@@ -104,6 +104,10 @@ def local_time(utc_iso: str) -> _dt.datetime:
     return t.astimezone()
 
 
+#: The longest span ``--since`` stands for, days (a century: every session there is); longer ones are cut to it.
+MAX_SINCE_DAYS = 36525.0
+
+
 def parse_since(text: str) -> _dt.timedelta:
     """``30d``, ``12h``, ``2w`` or a plain number of days -> a time span; ValueError with the accepted forms."""
     s = text.strip().lower()
@@ -117,7 +121,8 @@ def parse_since(text: str) -> _dt.timedelta:
     if not (math.isfinite(value) and value > 0):
         msg = f"--since {text!r}: expected a positive span such as 30d, 2w, 12h or 7"
         raise ValueError(msg)
-    return _dt.timedelta(days=value * (factor or 1.0))
+    # longer than any history: all of it (a span beyond the calendar made 'now - span' overflow: a traceback, a 500)
+    return _dt.timedelta(days=min(value * (factor or 1.0), MAX_SINCE_DAYS))
 
 
 def _wmean(pairs: Iterable[tuple[float, float]]) -> float:
