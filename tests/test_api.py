@@ -118,7 +118,11 @@ def test_open_video_and_load_session(clip, result, tmp_path: Path, capsys: pytes
     assert np.allclose(session.frames["pitch"], result.angles["pitch"])
     assert np.allclose(session.frames["pitch_abs"], result.angles["pitch_abs"])
     assert list(session.frames["model"]) == list(result.angles["model"])
-    assert len(session.hops) == 0 and session.hops.dtype.names[0] == "t_s"
+    # the analysis' per-second timeline as hops (for the history): walking where it walked, with its label
+    assert len(session.hops) == len(result.timeline) > 0 and session.hops.dtype.names[0] == "t_s"
+    walking = np.array([row[1] == "walking" for row in result.timeline])
+    assert np.array_equal(session.hops["walking"] == 1, walking)
+    assert list(session.hops["label"][walking]) == [row[2] for row in result.timeline if row[1] == "walking"]
     # walkmon report ID is the session's analysis, written
     assert main(["report", str(sid), "--data-dir", str(tmp_path / "db"), "--out", str(tmp_path / "rep")]) == 0
     capsys.readouterr()

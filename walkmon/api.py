@@ -112,6 +112,10 @@ class Analysis:
     #: timeline.csv rows ``(t, activity, label, pitch, roll, ref_uncertainty_deg)`` at 1 s (walkmon mode; empty in
     #: paper mode)
     timeline: tuple[tuple[float, str, str, float, float, float], ...] = ()
+    #: the raw IMU samples the steps and the activity came from (:class:`walkmon.gait.session.ImuInput`, on the
+    #: angles' time base; None without an IMU): :meth:`save` stores them, so ``walkmon report ID`` finds the same
+    #: steps
+    imu_input: Any = None
 
     @property
     def indicators(self) -> dict[str, Any]:
@@ -205,13 +209,30 @@ class Analysis:
         # with an IMU, the frames' pitch_abs/roll_abs as 'walkmon live' stores them, so 'walkmon report ID'
         # shows their section; fused (1: the IMU covered the frame, 0: camera only) only when a video was fused
         fused = None if absolute is None or not video else np.all(np.isfinite(absolute), axis=1).tolist()
+        # the raw IMU, so that 'walkmon report ID' takes its steps from it as this analysis did (without it, the
+        # report analysed the angles alone: a Mobilise-D course saved at 98.9 steps/min reported 71.6; an
+        # accelerometer alone, no report at all); and the per-second timeline as hops, so that the history and the
+        # dashboard count this session's time (without hops: 0 min recorded, 0 min walked)
+        imu = self.imu_input
+        samples = None if imu is None else (imu.t_s, imu.gyro_rad_s, imu.acc_m_s2)
         return record_offline_session(
             folder, self.t_s, self.angles_deg, source=self.source,
             imu=str((self.imu_info or {}).get("imu", "")),
             config={"method": self.method}, meta=dict(meta or {}),
             extra=[(e.n_inliers, e.model, e.status.value) for e in self.estimates] or None,  # none: IMU-only
-            abs_angles_deg=absolute, fused=fused,
+            abs_angles_deg=absolute, fused=fused, imu_samples=samples, timeline=self._timeline_hops(),
         )
+
+    def _timeline_hops(self) -> list[tuple[float, str, str, float, float, float]]:
+        """:attr:`timeline` as ``(t, activity, label, pitch, roll, cadence_spm)``: each walking second with the
+        cadence of the bout it lies in (NaN outside bouts, and without a cadence)."""
+        bouts = [(float(b["start_s"]), float(b["end_s"]), b.get("cadence_spm"))
+                 for b in (self.indicators.get("bouts") or []) if b.get("start_s") is not None]
+        out = []
+        for t, activity, label, pitch, roll, _doubt in self.timeline:
+            cadence = next((float(c) for a, b, c in bouts if a <= t <= b and c is not None), math.nan)
+            out.append((float(t), str(activity), str(label), float(pitch), float(roll), cadence))
+        return out
 
 
 def _baseline(baseline: Any) -> tuple[Indicators | None, str | None]:
@@ -333,7 +354,7 @@ def _gait_stage(
     if base_path:
         meta.setdefault("baseline", base_path)
     return Analysis(angles=_structured(columns), gait=indicators, meta=meta, settings=settings, baseline=base,
-                    reference_deg=ref, timeline=timeline, **fields)
+                    reference_deg=ref, timeline=timeline, imu_input=imu_input, **fields)
 
 
 # --------------------------------------------------------------------------------------------- analyze
@@ -738,7 +759,9 @@ class Session:
         t0 = float(t[0]) if t.size else 0.0  # the session's start, held frames or not
         a = (np.column_stack([self.frames[c] for c in ("pitch", "yaw", "roll")]).astype(float) if t.size
              else np.empty((0, 3)))
-        ok = np.all(np.isfinite(a), axis=1) if t.size else np.zeros(0, bool)
+        # an accelerometer alone measures no yaw (every frame's is NULL): pitch and roll are what it has
+        no_yaw = bool(t.size) and not np.isfinite(a[:, 1]).any()
+        ok = np.all(np.isfinite(a[:, [0, 2]] if no_yaw else a), axis=1) if t.size else np.zeros(0, bool)
         measured = measured_rows(self.frames["model"], self.frames["fused"]) if t.size else None
         if measured is not None:
             ok &= measured
@@ -755,8 +778,25 @@ class Session:
         r = self.record
         meta = {"session": self.id, "kind": r["kind"], "source": r["camera"], "started_utc": r["started_utc"],
                 "ended_utc": r["ended_utc"], "end_reason": r["end_reason"], "frames": int(t.size)}
-        return analyze_angles(t - t0, a, baseline=baseline, abs_angles_deg=absolute, reference_deg=reference,
-                              meta=meta)
+        columns: dict[str, Any] = {"t": t - t0, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2]}
+        if absolute is not None:
+            columns.update(pitch_abs=absolute[:, 0], roll_abs=absolute[:, 1])
+        return _gait_stage(columns, baseline=baseline, mode="walkmon", reference_deg=reference, meta=meta,
+                           imu_input=self._imu_input(t0), no_yaw=no_yaw)
+
+    def _imu_input(self, t0: float) -> Any:
+        """The raw IMU samples an offline analysis stored (:meth:`Analysis.save`), on the frames' time base less
+        ``t0``, for the steps and the activity (as ``walkmon analyze`` took them); None without them. Not a live
+        session's: its IMU rows are the samples as they came, which the live monitor did not take steps from."""
+        imu = self.imu
+        if self.record.get("kind") != "analyze" or len(imu) < 2:
+            return None
+        from walkmon.gait.session import ImuInput  # noqa: PLC0415
+
+        t = np.asarray(imu["t_s"], dtype=float) - t0
+        acc = np.column_stack([imu[c] for c in ("ax", "ay", "az")]).astype(float)
+        gyro = np.column_stack([imu[c] for c in ("gx", "gy", "gz")]).astype(float)
+        return ImuInput(t, acc, None if not np.isfinite(gyro).any() else gyro)
 
 
 def load_session(session_id: int, data_dir: str | Path | None = None) -> Session:

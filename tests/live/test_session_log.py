@@ -237,3 +237,53 @@ def test_analyze_imu_save_stores_the_absolute_angles_for_the_report(
     assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
     fused_abs = read_table(tmp_path / "fused" / "angles.csv", ("pitch_abs",))["pitch_abs"]
     assert f"<tr><td>pitch_abs mean [deg]</td><td>{np.mean(fused_abs):.3f}</td></tr>" in html
+
+
+@pytest.mark.parametrize("kind", ["imu", "acc"])
+def test_a_saved_imu_analysis_reports_as_analyzed_and_counts_in_the_history(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], kind: str) -> None:
+    """'analyze --imu --save' of a simulated walk (IMU, or its accelerometer alone), then 'report ID' and
+    'history' (user review). Before: the accelerometer's session had '0 frames with angles' (its yaw is NULL)
+    and no report; the IMU's report analysed the angles alone (a real course saved at 98.9 steps/min reported
+    71.6); the history counted no hops, 0 min recorded and 0 min walked. Now the report finds the true steps as
+    the analysis does, and the history counts the recording's length and its walking seconds."""
+    from walkmon.tables import read_table
+
+    sim = tmp_path / "sim"
+    assert main(["simulate", "--no-video", "--walk", "stand:3,normal:20,pause:4,normal:15,stand:3", "--seed", "2",
+                 "--out", str(sim)]) == 0
+    imu_csv = sim / "imu.csv"
+    if kind == "acc":
+        cols = read_table(imu_csv, ("t", "ax", "ay", "az"))
+        write_lines = ["t,ax,ay,az", *(",".join(f"{v:.7f}" for v in row)
+                                       for row in zip(*(cols[c] for c in ("t", "ax", "ay", "az")), strict=True))]
+        imu_csv = tmp_path / "acc.csv"
+        imu_csv.write_text("\n".join(write_lines) + "\n")
+    data = tmp_path / "data"
+    assert main(["analyze", "--imu", str(imu_csv), "--out", str(tmp_path / "out"), "--save",
+                 "--data-dir", str(data)]) == 0
+    assert main(["report", "1", "--data-dir", str(data), "--out", str(tmp_path / "rep")]) == 0
+    capsys.readouterr()
+    analysed = json.loads((tmp_path / "out" / "indicators.json").read_text())
+    reported = json.loads((tmp_path / "rep" / "indicators.json").read_text())
+    true_steps = read_table(sim / "truth_steps.csv", ("t",))["t"]
+    for doc in (analysed, reported):
+        assert len(doc["bouts"]) == 2
+        assert sum(b["n_steps"] for b in doc["bouts"]) == pytest.approx(true_steps.size, abs=3)
+    assert reported["cadence_spm"] == pytest.approx(analysed["cadence_spm"], rel=1e-6)
+    # the dashboard's report page is the same report (it was a 404 for the accelerometer's session)
+    from walkmon.serve.report_page import session_report_html
+    from walkmon.serve.store import Store
+
+    html = session_report_html(Store(data), 1)
+    assert f"{reported['cadence_spm']:.1f}" in html and "Per second, from the gait analysis" in html
+    # the history: the recording's length, and its walking seconds as the truth has them (turns: none here)
+    truth = read_table(sim / "truth_timeline.csv", ("t",))
+    activity = [line.split(",")[1] for line in (sim / "truth_timeline.csv").read_text().splitlines()[1:]]
+    true_walking_s = float(np.mean(np.array(activity) == "walking") * (truth["t"][-1] - truth["t"][0]))
+    assert main(["history", "--data-dir", str(data), "--out", str(tmp_path / "hist"), "--since", "1d"]) == 0
+    capsys.readouterr()
+    row = (tmp_path / "hist" / "history.csv").read_text().splitlines()[1].split(",")
+    recorded_min, walking_min = float(row[2]), float(row[3])
+    assert recorded_min * 60 == pytest.approx(truth["t"][-1], abs=1.5)
+    assert walking_min * 60 == pytest.approx(true_walking_s, abs=4.0)

@@ -36,8 +36,9 @@ def run(args: argparse.Namespace) -> int:
 
     files = result.write(out, angles=False, report=False)
     store = Store(data_dir_of(args))
-    stats, _ = store.session(args.session_id)
-    hops: dict[str, Any] | None = store.timeline(args.session_id)
+    stats, record = store.session(args.session_id)
+    # an offline analysis' hops are its own per-second timeline, stored for the history: its report draws that
+    hops: dict[str, Any] | None = store.timeline(args.session_id) if record["kind"] != "analyze" else None
     if hops is not None and hops["hops"]["t_s"]:
         html = result.report_html(timeline=hops, stats=stats, person=stats.person,
                                   timeline_source="Per second, from the hops and alerts the live monitor logged.")

@@ -374,8 +374,23 @@ class SessionLog:
                  _num(float(latency_ms)), pa, ra, None if fused is None else int(bool(fused))))
 
     def add_imu(self, t_s: float, gyroscope_rad_s: Sequence[float], accelerometer_ms2: Sequence[float]) -> None:
-        self._buffers["imu"].append((self.session_id, float(t_s), *map(float, gyroscope_rad_s),
+        """One IMU sample (rad/s, m/s²); a gyroscope of NaN (an accelerometer alone) is stored as NULL."""
+        self._buffers["imu"].append((self.session_id, float(t_s), *(_num(float(v)) for v in gyroscope_rad_s),
                                      *map(float, accelerometer_ms2)))
+
+    def add_timeline_hop(self, t_s: float, activity: str, label: str, pitch_deg: float, roll_deg: float,
+                         cadence_spm: float) -> None:
+        """One second of an offline analysis' timeline (:attr:`walkmon.api.Analysis.timeline`) as a hop: its
+        activity (walking or not), posture label, heading-free pitch and roll from the upright reference, and the
+        cadence of the walking bout it lies in, so that the history and the dashboard count an analysis' time as
+        they count a live session's hops. The per-cycle swings and inclinations a live hop carries stay NULL."""
+        walking = activity == "walking"
+        doc = {"t_s": float(t_s), "walking": walking, "activity": activity, "source": "analysis timeline",
+               "classification": {"label": label, "reasons": []}}
+        self._buffers["hops"].append(
+            (self.session_id, float(t_s), int(walking), _num(float(cadence_spm)) if walking else None,
+             None, None, None, None, None, None, _num(float(pitch_deg)), None, _num(float(roll_deg)), None,
+             label or ("unclassified" if walking else "not_walking"), json.dumps(doc, sort_keys=True)))
 
     def add_hop(self, ind: object, extra: dict[str, object] | None = None) -> None:
         """One :class:`~walkmon.gait.live.LiveIndicators`; ``extra`` is merged into its JSON (e.g. the
@@ -628,12 +643,17 @@ def record_offline_session(
     abs_angles_deg: Iterable[Sequence[float]] | None = None,
     fused: Iterable[bool] | None = None,
     person: str = "",
+    imu_samples: tuple[Sequence[float], Sequence[Sequence[float]] | None, Sequence[Sequence[float]]] | None = None,
+    timeline: Iterable[tuple[float, str, str, float, float, float]] | None = None,
 ) -> int:
     """Store an offline analysis (``walkmon analyze --save``) as a session of kind ``analyze``; its id.
 
     ``abs_angles_deg`` (pitch_abs, roll_abs per frame; NaN stored as NULL) and ``fused`` (1/0 per frame) fill
     the frames' schema-2 columns when the analysis used an IMU; without them they stay NULL, as for a
-    camera-only live session.
+    camera-only live session. ``imu_samples``: ``(t_s, gyro rad/s or None, acc m/s²)``, the raw samples the
+    analysis took its steps from, on the frames' time base (the imu table; ``walkmon report ID`` analyses them
+    again as ``analyze`` did). ``timeline``: ``(t, activity, label, pitch, roll, cadence_spm)`` per second, stored
+    as hops (:meth:`SessionLog.add_timeline_hop`) for the history and the dashboard.
     """
     t_list, a_list = list(t_s), list(angles_deg)
     columns: dict[str, list[Any] | None] = {"extra": None if extra is None else list(extra),
@@ -650,6 +670,13 @@ def record_offline_session(
         log.add_frame(t, a, n_inl, model, status,
                       abs_angles_deg=None if columns["abs"] is None else columns["abs"][i],
                       fused=None if columns["fused"] is None else bool(columns["fused"][i]))
+    if imu_samples is not None:
+        t_imu, gyro, acc = imu_samples
+        no_gyro = (math.nan, math.nan, math.nan)
+        for i, ti in enumerate(t_imu):
+            log.add_imu(float(ti), no_gyro if gyro is None else gyro[i], acc[i])
+    for row in timeline or ():
+        log.add_timeline_hop(*row)
     log.close("complete")
     return log.session_id
 
