@@ -78,6 +78,27 @@ def test_writers_refuse_a_symlinked_output_folder_and_write_private_files(walk, 
                                                                              out.iterdir()}
 
 
+@pytest.mark.parametrize("command", ["batch", "simulate"])
+@pytest.mark.parametrize("link", ["planted", "dangling"])
+def test_batch_and_simulate_refuse_a_symlinked_output_folder(walk, tmp_path, cli, command, link) -> None:
+    """User review: 'walkmon batch' and 'walkmon simulate' wrote their files into the folder a symlinked --out
+    pointed at (summary.csv, bouts.parquet, manifest.json; truth.csv, imu.csv), where every other writer refuses
+    one. Now one line, exit 2, nothing written there (nor created, for a dangling link)."""
+    real = tmp_path / "real"
+    if link == "planted":
+        real.mkdir()
+    out = tmp_path / "out_link"
+    out.symlink_to(real, target_is_directory=True)
+    argv = {"batch": ["batch", walk / "imu.csv", "--out", out, "--workers", "1", "--dashboard", "none"],
+            "simulate": ["simulate", "--no-video", "--seconds", "5", "--out", out]}[command]
+    cli(*argv).one_line_error("symbolic link")
+    if link == "planted":
+        assert list(real.iterdir()) == []
+    else:
+        assert not real.exists()
+    assert out.is_symlink()
+
+
 def test_calibration_writer_refuses_a_symlinked_yaml(tmp_path: Path) -> None:
     from walkmon.camera.model import default_camera, write_camera_yaml
 

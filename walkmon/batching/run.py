@@ -37,6 +37,7 @@ from walkmon.batching.tables import (
 from walkmon.batching.worker import STATE_DIR, analyze_task
 from walkmon.errors import ConfigError, InvalidInputError
 from walkmon.imu.attitude import IMU_FILTERS
+from walkmon.safe_io import check_not_symlink
 
 __all__ = ["BatchProgress", "batch"]
 
@@ -147,10 +148,10 @@ def _options(method: str | None, mode: str | None, baseline: str | os.PathLike[s
 
 
 def _check_out(out: Path) -> None:
-    """Refuse an OUT that cannot be a batch's output folder (before any cluster starts; nothing written)."""
-    if out.is_symlink() and not out.is_dir():
-        msg = f"{out}: is a broken symbolic link"
-        raise InvalidInputError(msg)
+    """Refuse an OUT that cannot be a batch's output folder (before any cluster starts; nothing written): a
+    symbolic link, dangling or not (a link walkmon did not make; user review: the batch wrote through one, as
+    no other command does)."""
+    check_not_symlink(out, "output folder")
     if out.exists() and not out.is_dir():
         msg = f"{out}: exists and is not a folder"
         raise InvalidInputError(msg)

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from walkmon.camera.model import CameraModel, default_camera, write_camera_yaml
 from walkmon.consts import TRUTH_COLUMNS
 from walkmon.errors import InvalidInputError
+from walkmon.safe_io import prepare_dir
 from walkmon.simulate._version import SIMULATOR_VERSION
 from walkmon.simulate.gait import STANDING_S, GaitModel
 from walkmon.simulate.imu import (
@@ -303,8 +304,7 @@ def simulate(
         walk, seconds, seed, width, height, fps, distortion,
         stand_s=stand_s, render_settings=render_settings, imu_settings=imu_settings,
     )
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_dir(out_dir)  # a symlinked folder is refused, as by every writer (user review)
     truth_path, imu_path = out / "truth.csv", out / "imu.csv"
     timeline_path, steps_path = out / "truth_timeline.csv", out / "truth_steps.csv"
     camera_path, meta_path, video_path = out / "camera.yaml", out / "meta.json", out / "video.mp4"
