@@ -491,6 +491,15 @@ def _read_imu(imu_path: str | Path) -> tuple[Any, dict[str, Any]]:
 
     units: list[str] = []
     rec = read_imu_csv(imu_path, units_out=units)
+    gyro, acc = rec.gyroscope_rad_s, rec.accelerometer_m_s2
+    if np.all(np.ptp(gyro, axis=0) == 0.0) and np.ptp(np.linalg.norm(acc, axis=1)) > 0.0:
+        # every row the same rate while the accelerometer moves: no gyroscope there (a logger writing zeros for a
+        # missing or dead one). Analysed, it read no turn and labelled a real course left_shoulder_down, where its
+        # own gyroscope, or its accelerometer alone, gave no label (user review)
+        msg = (f"{imu_path}: the gyroscope reads {gyro[0, 0]:g}, {gyro[0, 1]:g}, {gyro[0, 2]:g} rad/s on every row "
+               "while the accelerometer moves: a dead or missing gyroscope; give the file without its gx,gy,gz "
+               "columns (t,ax,ay,az) to analyse the accelerometer alone")
+        raise InvalidInputError(msg)
     return rec, ({"units": units} if units else {})
 
 

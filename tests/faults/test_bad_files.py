@@ -84,6 +84,21 @@ def test_dead_imu_file_is_refused_for_imu_only_analysis(tmp_path: Path, cli) -> 
     res.one_line_error("0 plausible IMU rows of 500", "no_gravity 500")
 
 
+@pytest.mark.parametrize("value", ["0", "0.0123"])
+def test_a_dead_gyroscope_beside_a_live_accelerometer_is_refused(walk: Path, tmp_path: Path, cli, value: str) -> None:
+    """A simulated walk's imu.csv whose gyroscope reads the same on every row (a logger writing zeros for a
+    missing or dead one). Analysed, such a real course read no turn and a left_shoulder_down label where its own
+    gyroscope gave none (user review); now one line naming the accelerometer-only way, with or without a video."""
+    lines = (walk / "imu.csv").read_text().splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    imu = tmp_path / "gyro_dead.csv"
+    imu.write_text(lines[0] + "\n" + "".join(",".join([r[0], value, value, value, *r[4:]]) + "\n" for r in rows))
+    res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
+    res.one_line_error("dead or missing gyroscope", "t,ax,ay,az")
+    res = cli("analyze", walk / "video.mp4", "--imu", imu, "--out", tmp_path / "out2", "--no-progress")
+    res.one_line_error("dead or missing gyroscope")
+
+
 def test_dead_accelerometer_only_file_is_refused(tmp_path: Path, cli) -> None:
     """The accelerometer-only reader applies the imu.csv reader's plausibility rules (it raised a confusing
     error about angles, with a numpy warning, before)."""
