@@ -63,7 +63,7 @@ def read_table(
     p = Path(path)
     data = read_bounded(p, MAX_TABLE_BYTES if max_bytes is None else max_bytes, "CSV table")
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8-sig")  # a spreadsheet's "CSV UTF-8" starts with a byte-order mark (user review)
     except UnicodeDecodeError:
         msg = f"{p}: cannot read as CSV (not UTF-8 text)"
         raise InvalidInputError(msg) from None

@@ -99,6 +99,43 @@ def test_a_dead_gyroscope_beside_a_live_accelerometer_is_refused(walk: Path, tmp
     res.one_line_error("dead or missing gyroscope")
 
 
+def _accelerometer_only(walk: Path, path: Path) -> Path:
+    """The walk's imu.csv without its gyroscope: t,ax,ay,az."""
+    lines = (walk / "imu.csv").read_text().splitlines()
+    path.write_text("t,ax,ay,az\n" + "".join(",".join([r.split(",")[0], *r.split(",")[4:]]) + "\n"
+                                               for r in lines[1:]))
+    return path
+
+
+def test_indicators_refuses_the_angles_of_an_accelerometer_alone(walk: Path, tmp_path: Path, cli) -> None:
+    """'analyze --imu t,ax,ay,az' writes angles.csv with yaw nan on every row; 'indicators' read it as a damaged
+    file ('nan' is not a finite number), against its help (user review). Its angles are gravity's low-passed
+    pitch and roll, which hold no steps: one line saying so and what to run instead."""
+    acc = _accelerometer_only(walk, tmp_path / "acc.csv")
+    assert cli("analyze", "--imu", acc, "--out", tmp_path / "a").rc == 0
+    res = cli("indicators", tmp_path / "a" / "angles.csv", "--out", tmp_path / "i")
+    res.one_line_error("no yaw on any row", "walkmon analyze --imu")
+    # a yaw missing on some rows only is still a damaged file, named by its line
+    lines = (walk / "truth.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    row = lines[5].split(",")
+    row[header.index("yaw")] = "nan"
+    lines[5] = ",".join(row)
+    (tmp_path / "damaged.csv").write_text("\n".join(lines) + "\n")
+    cli("indicators", tmp_path / "damaged.csv", "--out", tmp_path / "d").one_line_error("line 6, column yaw")
+
+
+def test_a_csv_with_a_byte_order_mark_reads_as_without(walk: Path, tmp_path: Path, cli) -> None:
+    """A spreadsheet's 'CSV UTF-8' starts with a byte-order mark; it read as 'missing column(s) t; header is t,..'
+    (user review). The same analysis as without it."""
+    plain = _accelerometer_only(walk, tmp_path / "acc.csv")
+    bom = tmp_path / "bom.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    for name, path in (("plain", plain), ("bom", bom)):
+        assert cli("analyze", "--imu", path, "--out", tmp_path / name).rc == 0
+    assert (tmp_path / "bom" / "indicators.json").read_text() == (tmp_path / "plain" / "indicators.json").read_text()
+
+
 def test_dead_accelerometer_only_file_is_refused(tmp_path: Path, cli) -> None:
     """The accelerometer-only reader applies the imu.csv reader's plausibility rules (it raised a confusing
     error about angles, with a numpy warning, before)."""

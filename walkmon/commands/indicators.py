@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from walkmon.consts import ANGLE_COLUMNS
+from walkmon.errors import InvalidInputError
 
 NAME = "indicators"
 HELP = "gait indicators, walk classification and report.html from an angles CSV (t,pitch,yaw,roll; truth.csv works)"
@@ -83,7 +84,6 @@ def _meta_beside(path: Path) -> dict[str, Any]:
     meta: dict[str, Any] = {"input": str(path)}
     side = path.parent / "meta.json"
     if side.is_file():
-        from walkmon.errors import InvalidInputError  # noqa: PLC0415
         from walkmon.safe_io import MAX_TEXT_INPUT_BYTES, read_bounded  # noqa: PLC0415
 
         try:
@@ -102,7 +102,15 @@ def run(args: argparse.Namespace) -> int:
     from walkmon.tables import read_table, read_text_column  # noqa: PLC0415
 
     path = Path(args.angles)
-    table = read_table(path, ANGLE_COLUMNS)
+    table = read_table(path, ("t", "pitch", "roll"))
+    yaw = table.get("yaw")
+    if yaw is not None and yaw.size and not np.isfinite(yaw).any():
+        # the angles.csv of 'analyze --imu t,ax,ay,az': gravity's pitch and roll, low-passed, which hold no step
+        # rhythm (user review: refused as 'nan is not a finite number', against this command's help)
+        msg = (f"{path}: no yaw on any row: the angles of an accelerometer alone (gravity's pitch and roll, "
+               "low-passed), which hold no steps; analyse its t,ax,ay,az file with 'walkmon analyze --imu FILE'")
+        raise InvalidInputError(msg)
+    table = read_table(path, ANGLE_COLUMNS)  # a yaw missing, or missing on some rows only: said as before
     t = table["t"]
     angles = np.column_stack([table[c] for c in ANGLE_COLUMNS[1:]])
     # the gravity-referenced angles of 'walkmon analyze --imu' (NaN where not fused), shown as analyze shows them
