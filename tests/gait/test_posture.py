@@ -74,6 +74,18 @@ def test_unusable_indicators_are_unclassified() -> None:
     assert set(LABELS) == {"normal", "left_shoulder_down", "right_foot_drag", "bend", "unclassified"}
 
 
+@pytest.mark.parametrize("column", ["normal", "motion1", "motion3"])
+def test_without_a_yaw_swing_no_walk_is_labelled(column: str) -> None:
+    """The paper's walks with their yaw swing unknown (an accelerometer alone, '--mode paper'): the sway rule
+    cannot be applied, so no label without a baseline (user review: the normal walk's reason read 'total swing
+    nan deg < 16 deg', labelled normal)."""
+    doc = table3_doc(column)
+    doc["axes"]["yaw"]["swing_mean"] = None
+    c = classify(doc)
+    assert c.label == "unclassified"
+    assert "total swing not measured" in c.reasons[0]
+
+
 def test_thresholds_are_validated() -> None:
     with pytest.raises(ConfigError):
         PostureThresholds(drag_swing_ratio=0.5)

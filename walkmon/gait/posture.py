@@ -347,6 +347,12 @@ def _alternating(doc: Mapping[str, Any], th: PostureThresholds) -> tuple[bool, s
 def _absolute(doc: Mapping[str, Any], th: PostureThresholds) -> tuple[str, list[str]]:
     rho_p, rho_r = _axis(doc, "pitch", "inclination_mean"), _axis(doc, "roll", "inclination_mean")
     total = _total_swing(doc)
+    if not math.isfinite(total):
+        # no yaw swing (an accelerometer alone): whether the sway is the paper's poor balance is not known, so no
+        # label at all (user review: '--mode paper' called such a walk normal, 'total swing nan deg < 16 deg')
+        return "unclassified", [
+            f"total swing not measured (yaw swing {_axis(doc, 'yaw', 'swing_mean'):.1f} deg: no gyroscope?): the "
+            f"sway rule of the paper's labels cannot be applied"]
     if math.isfinite(total) and total >= th.drag_total_swing_deg:
         alternating, seen = _alternating(doc, th)
         if not alternating:
