@@ -91,6 +91,7 @@ def _foreign(path: Path, kind: str) -> None:
 def test_foreign_sqlite_file_is_refused_and_left_as_it_was(tmp_path: Path, cli, kind: str) -> None:
     db = tmp_path / "walkmon.sqlite"
     _foreign(db, kind)
+    db.chmod(0o644)  # its own mode, left as it is too (user review: 'walkmon live' made it 0600, then refused it)
     before = _digest(db)
     for argv in (("sessions", "list"), ("report", "1"), ("sessions", "delete", "1"),
                  ("sessions", "prune", "--older-than", "0")):
@@ -98,6 +99,7 @@ def test_foreign_sqlite_file_is_refused_and_left_as_it_was(tmp_path: Path, cli, 
     res = cli("live", "--camera", "sim:normal:2?width=64&height=48", "--data-dir", db, "--status", "none")
     res.one_line_error("not a walkmon session database")
     assert _digest(db) == before
+    assert db.stat().st_mode & 0o777 == 0o644
     conn = sqlite3.connect(db)
     try:
         assert conn.execute("PRAGMA journal_mode").fetchone()[0] == "delete"  # not switched to WAL

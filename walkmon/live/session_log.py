@@ -261,9 +261,11 @@ def open_database(data_dir: str | Path, *, create: bool = True, read_only: bool 
             _check_walkmon_database(conn, path)
             return conn
         _create_private(path)
-        _private(path)
         conn = sqlite3.connect(str(path), check_same_thread=False, timeout=10.0)
         _check_walkmon_database(conn, path)
+        # made private only once it is known to be walkmon's: a foreign file is refused as it was found (user review:
+        # its mode was changed, with a warning, and then it was refused)
+        _private(path)
         conn.execute("PRAGMA journal_mode=WAL")
         conn.execute("PRAGMA synchronous=FULL")
         conn.executescript(_SCHEMA)
