@@ -253,6 +253,11 @@ def _baseline(baseline: Any) -> tuple[Indicators | None, str | None]:
     raise InvalidInputError(msg)
 
 
+#: The longest median interval between angle samples (s) an analysis takes: 5 per second, slower than any video
+#: a step rhythm (1.5-2 per second) can be seen in; longer is t in other units than seconds.
+MAX_ANGLE_INTERVAL_S = 0.2
+
+
 def analyze_angles(
     t_s: ArrayLike,
     angles_deg: ArrayLike,
@@ -274,6 +279,13 @@ def analyze_angles(
     a = np.asarray(angles_deg, dtype=float)
     if a.shape != (len(t), 3):
         msg = f"angles_deg must have shape ({len(t)}, 3) like t_s, got {a.shape}"
+        raise InvalidInputError(msg)
+    if len(t) >= 2 and np.isfinite(t).all() and float(np.median(np.diff(t))) > MAX_ANGLE_INTERVAL_S:
+        # t in milliseconds read as seconds: 30 fps became frames 33 s apart, 'no walking bout' and a standing
+        # phase of hours, exit 0 (user review; the IMU's reader refuses the same, walkmon.imu.units)
+        dt = float(np.median(np.diff(t)))
+        msg = (f"angles {dt:g} apart on median ({1.0 / dt:.3g} per unit of t): t must be in seconds and the angles "
+               f"at {1.0 / MAX_ANGLE_INTERVAL_S:g} per second or more (is t in milliseconds?)")
         raise InvalidInputError(msg)
     columns: dict[str, Any] = {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2]}
     if abs_angles_deg is not None:

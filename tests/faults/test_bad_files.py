@@ -125,6 +125,16 @@ def test_indicators_refuses_the_angles_of_an_accelerometer_alone(walk: Path, tmp
     cli("indicators", tmp_path / "damaged.csv", "--out", tmp_path / "d").one_line_error("line 6, column yaw")
 
 
+def test_angles_timed_in_milliseconds_are_refused(walk: Path, tmp_path: Path, cli) -> None:
+    """truth.csv with t in milliseconds: 'indicators' read frames 33 s apart, 'no walking bout', a standing phase
+    of hours, exit 0 (user review). One line, as the IMU's reader says it."""
+    lines = (walk / "truth.csv").read_text().splitlines()
+    rows = [line.split(",") for line in lines[1:]]
+    (tmp_path / "ms.csv").write_text(lines[0] + "\n" + "".join(",".join([str(float(r[0]) * 1000), *r[1:]]) + "\n"
+                                                                for r in rows))
+    cli("indicators", tmp_path / "ms.csv", "--out", tmp_path / "o").one_line_error("is t in milliseconds?")
+
+
 def test_a_csv_with_a_byte_order_mark_reads_as_without(walk: Path, tmp_path: Path, cli) -> None:
     """A spreadsheet's 'CSV UTF-8' starts with a byte-order mark; it read as 'missing column(s) t; header is t,..'
     (user review). The same analysis as without it."""
