@@ -8,6 +8,7 @@ the device with backoff (``reconnectable``).
 from __future__ import annotations
 
 import logging
+import os
 import time
 
 from walkmon.drivers.camera_base import CameraSource, Frame
@@ -33,6 +34,10 @@ class V4l2Camera(CameraSource):
         import cv2  # noqa: PLC0415
 
         target: int | str = int(self.device) if self.device.isdigit() else self.device
+        if isinstance(target, str) and not os.path.exists(target):
+            # said here in one line: OpenCV would first print a warning of its own about the missing device
+            msg = f"{self.url}: no such device {self.device} (is the camera plugged in?)"
+            raise SourceError(msg)
         cap = cv2.VideoCapture(target, cv2.CAP_V4L2)
         if not cap.isOpened():
             cap.release()

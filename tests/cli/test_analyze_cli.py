@@ -189,3 +189,14 @@ def test_progress_bar_draws_frames_per_second_only_when_enabled():
     text = loud.getvalue()
     assert "10/10" in text and "frames/s" in text and text.endswith("\n")
     assert re.search(r"\[\d\d:\d\d<\d\d:\d\d", text), text  # elapsed<remaining: the ETA
+
+
+def test_a_recording_without_a_walk_says_so_and_prints_no_nan(tmp_path, capsys):
+    """A simulated wearer standing still for 10 s: no bout, so no cadence. The summary line said 'cadence nan
+    steps/min' (user review); now 'no cadence', and no 'nan' anywhere in what the user reads."""
+    assert main(["simulate", "--no-video", "--walk", "stand:10", "--out", str(tmp_path / "sim")]) == 0
+    capsys.readouterr()
+    assert main(["indicators", str(tmp_path / "sim" / "truth.csv"), "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "no cadence, walking 0.0 s" in out
+    assert "nan" not in out.lower()

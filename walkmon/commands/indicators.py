@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -148,7 +149,10 @@ def summary_line(json_path: Path, html_path: Path, indicators: Any) -> str:
         extra += "".join(f"\n  note: {n}" for n in notes)
     lines = "\n  ".join(cls.reasons)
     timeline = f"\n-> {Path(json_path).parent / 'timeline.csv'}" if summary is not None else ""
+    # no cadence (no walking bout): said, not printed as 'nan' (user review)
+    cadence = (f"cadence {indicators.cadence_spm:.1f} steps/min" if math.isfinite(indicators.cadence_spm)
+               else "no cadence")
     return (
-        f"{cls.label}: cadence {indicators.cadence_spm:.1f} steps/min, walking {indicators.walking_s:.1f} s{extra} "
+        f"{cls.label}: {cadence}, walking {indicators.walking_s:.1f} s{extra} "
         f"[{indicators.status.value}]\n  " + lines + f"\n-> {json_path}{timeline}\n-> {html_path}\n"
     )

@@ -266,9 +266,12 @@ def _run(args: argparse.Namespace) -> int:
             raise
         finally:
             status.end()
+    # a session that ended before any frame has no latency: said, not printed as 'nan ms' (user review)
+    latency = (f"latency p99 {res.latency_p99_ms:.0f} ms" if math.isfinite(res.latency_p99_ms)
+               else "no frame processed")
     sys.stdout.write(
         f"session {res.session_id}: {res.duration_s:.1f} s, {res.frames} frames, {res.dropped} dropped, "
-        f"{res.hops} hops, {res.alerts_raised} alerts, latency p99 {res.latency_p99_ms:.0f} ms "
+        f"{res.hops} hops, {res.alerts_raised} alerts, {latency} "
         f"({printable(res.end_reason)}) -> {log.path}\n")
     if res.fusion is not None:
         cam = res.fusion["frames_camera_only"]
