@@ -711,6 +711,19 @@ def analyze(
     if imu_offset_s is not None and not math.isfinite(float(imu_offset_s)):
         msg = f"imu_offset_s must be a finite number of seconds, got {imu_offset_s!r}"
         raise ConfigError(msg)
+    from walkmon.safe_io import pipes_read_again  # noqa: PLC0415
+
+    with pipes_read_again():  # an IMU file given as a pipe is read twice (its columns, then its rows)
+        return _analyze(video, imu, calib, method, baseline, mode, imu_filter, imu_offset_s, imu_extrinsics,
+                        imu_calib, progress, readout_s)
+
+
+def _analyze(
+    video: str | Path | None, imu: str | Path | None, calib: str | Path | None, method: str, baseline: Any, mode: str,
+    imu_filter: str, imu_offset_s: float | None, imu_extrinsics: str, imu_calib: str | Path | None,
+    progress: ProgressCallback | None, readout_s: float | None,
+) -> Analysis:
+    """:func:`analyze`, its arguments checked."""
     estimates: list[RotationEstimate] = []
     imu_info: dict[str, Any] | None = None
     if video is None:  # IMU-only analysis: the IMU's attitude, then the same gait stages

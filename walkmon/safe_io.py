@@ -151,9 +151,40 @@ def read_bounded(path: str | Path, max_bytes: int, what: str = "file") -> bytes:
     """The bytes of ``path``, at most ``max_bytes`` of them: a longer input raises :class:`InvalidInputError`.
 
     Works for devices and pipes too (``/dev/zero`` ends in the size error, not in exhausted memory); a folder
-    or a missing file raises :class:`InvalidInputError` naming it.
+    or a missing file raises :class:`InvalidInputError` naming it. A pipe (``--imu <(zcat imu.csv.gz)``) can be
+    read once only, while an analysis reads its input twice (its columns, then its rows): within
+    :func:`pipes_read_again`, the last pipe's bytes are kept and given again (user review: the second read found
+    it empty, 'empty file').
     """
     p = Path(path)
+    try:
+        piped = _PIPES[0] is not None and stat.S_ISFIFO(os.stat(p).st_mode)
+    except OSError:
+        piped = False
+    if piped and _PIPES[0] == str(p):
+        return bytes(_PIPES[1])
+    data = _read_bounded(p, max_bytes, what)
+    if piped:
+        _PIPES[:] = [str(p), data]
+    return data
+
+
+#: Within :func:`pipes_read_again`: ``[path, bytes]`` of the last pipe read ('' before one); outside: ``[None]``.
+_PIPES: list[Any] = [None, b""]
+
+
+@contextlib.contextmanager
+def pipes_read_again() -> Iterator[None]:
+    """Within it, a pipe :func:`read_bounded` reads a second time gives the bytes it gave the first time (the last
+    pipe read: one input's memory at most); outside, every read reads (a named pipe fed anew is read anew)."""
+    _PIPES[:] = ["", b""]
+    try:
+        yield
+    finally:
+        _PIPES[:] = [None, b""]
+
+
+def _read_bounded(p: Path, max_bytes: int, what: str) -> bytes:
     try:
         fd = os.open(p, os.O_RDONLY | getattr(os, "O_CLOEXEC", 0))
     except FileNotFoundError:

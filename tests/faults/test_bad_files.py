@@ -4,6 +4,7 @@ traceback, never exit 0 with wrong numbers (issue 12, items 1, 3, 5, 9, 12, 13).
 from __future__ import annotations
 
 import math
+import os
 import shutil
 from pathlib import Path
 
@@ -133,6 +134,39 @@ def test_angles_timed_in_milliseconds_are_refused(walk: Path, tmp_path: Path, cl
     (tmp_path / "ms.csv").write_text(lines[0] + "\n" + "".join(",".join([str(float(r[0]) * 1000), *r[1:]]) + "\n"
                                                                 for r in rows))
     cli("indicators", tmp_path / "ms.csv", "--out", tmp_path / "o").one_line_error("is t in milliseconds?")
+
+
+def test_an_imu_file_through_a_pipe_reads_as_the_file(walk: Path, tmp_path: Path, cli) -> None:
+    """'--imu <(zcat imu.csv.gz)': a pipe, read once only, while the analysis reads its input twice (its columns,
+    then its rows); the second read found it empty, 'empty file' (user review). A named pipe fed once by a
+    writer: the same analysis as from the file."""
+    import threading
+
+    acc = _accelerometer_only(walk, tmp_path / "acc.csv")
+    fifo = tmp_path / "acc.pipe"
+    os.mkfifo(fifo)
+
+    done = threading.Event()
+
+    def feed() -> None:
+        with fifo.open("wb") as f:  # blocks until the analysis opens the pipe to read
+            f.write(acc.read_bytes())
+        # a reader that opens the pipe again gets its end at once (as '<(...)' would give it), not a wait forever
+        while not done.wait(0.05):
+            try:
+                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+            except OSError:
+                pass  # no reader now
+
+    writer = threading.Thread(target=feed, daemon=True)
+    writer.start()
+    try:
+        assert cli("analyze", "--imu", fifo, "--out", tmp_path / "piped").rc == 0
+    finally:
+        done.set()
+        writer.join(timeout=10)
+    assert cli("analyze", "--imu", acc, "--out", tmp_path / "file").rc == 0
+    assert (tmp_path / "piped" / "indicators.json").read_text() == (tmp_path / "file" / "indicators.json").read_text()
 
 
 def test_a_csv_with_a_byte_order_mark_reads_as_without(walk: Path, tmp_path: Path, cli) -> None:
