@@ -169,6 +169,15 @@ def test_an_imu_file_through_a_pipe_reads_as_the_file(walk: Path, tmp_path: Path
     assert (tmp_path / "piped" / "indicators.json").read_text() == (tmp_path / "file" / "indicators.json").read_text()
 
 
+def test_an_empty_output_or_data_folder_is_refused(walk: Path, tmp_path: Path, cli, monkeypatch) -> None:
+    """'--out ""' is the current folder to pathlib: analyze and history wrote their files there unasked (user
+    review). One line, exit 2, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    cli("analyze", "--imu", walk / "imu.csv", "--out", "").one_line_error("--out is empty")
+    cli("sessions", "list", "--data-dir", " ").one_line_error("--data-dir is empty")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_csv_with_a_byte_order_mark_reads_as_without(walk: Path, tmp_path: Path, cli) -> None:
     """A spreadsheet's 'CSV UTF-8' starts with a byte-order mark; it read as 'missing column(s) t; header is t,..'
     (user review). The same analysis as without it."""

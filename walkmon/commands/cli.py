@@ -93,6 +93,10 @@ def _main(argv: Sequence[str] | None) -> int:
     if not getattr(args, "_run", None):
         parser.print_help(sys.stderr)
         return EXIT_USAGE
+    for option in ("out", "data_dir"):
+        if getattr(args, option, None) is not None and not str(getattr(args, option)).strip():
+            # '' is the current folder to pathlib: files landed there unasked (user review)
+            parser.error(f"--{option.replace('_', '-')} is empty: give a folder")
     try:
         return int(args._run(args) or 0)
     except WalkmonError as exc:
