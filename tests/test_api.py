@@ -140,3 +140,22 @@ def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:
         walkmon.analyze(tmp_path / "x.mp4")
     with pytest.raises(InvalidInputError, match="shape"):
         walkmon.analyze_angles([0, 1, 2], np.zeros((2, 3)))
+
+
+def test_writing_beside_an_earlier_runs_files_says_so(clip, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:  # noqa: ANN001
+    """An IMU analysis, then an angles-only one into the same folder: the first run's angles.csv and imu.json stay
+    (they may be all a user has of it) but no longer match the new files; a warning names them (user review:
+    nothing said so). Into a fresh folder, no warning."""
+    import logging
+
+    out = tmp_path / "out"
+    walkmon.analyze(imu=clip.video_path.parent / "imu.csv").write(out)
+    table = read_table(clip.video_path.parent / "truth.csv", ("t", "pitch", "yaw", "roll"))
+    again = walkmon.analyze_angles(table["t"], np.column_stack([table[c] for c in ("pitch", "yaw", "roll")]))
+    with caplog.at_level(logging.WARNING, logger="walkmon.api"):
+        again.write(tmp_path / "fresh", angles=False)
+        assert not caplog.records
+        again.write(out, angles=False)
+    (rec,) = caplog.records
+    assert "angles.csv, imu.json from an earlier run" in rec.getMessage()
+    assert (out / "imu.json").exists()  # said, not deleted

@@ -87,6 +87,10 @@ def _structured(columns: Mapping[str, Any]) -> NDArray[Any]:
     return out
 
 
+#: The files :meth:`Analysis.write` may write (for the warning about an earlier run's left beside them).
+_OUTPUT_NAMES = ("angles.csv", "imu.json", "indicators.json", "timeline.csv", "report.html")
+
+
 @dataclass(frozen=True, eq=False)
 class Analysis:
     """The result of :func:`analyze` / :func:`analyze_angles` (frozen).
@@ -189,12 +193,17 @@ class Analysis:
             written["timeline.csv"] = out / "timeline.csv"
             write_table(written["timeline.csv"], self._timeline_columns(),
                         precision={"t": 1, "pitch": 2, "roll": 2, "ref_uncertainty_deg": 1})
-        if not report:
-            return written
-        written["report.html"] = out / "report.html"
-        text = self.report_html()
-        write_text(written["report.html"], text)
-        _log.info("wrote %s (%d kB)", written["report.html"], len(text) // 1024)
+        if report:
+            written["report.html"] = out / "report.html"
+            text = self.report_html()
+            write_text(written["report.html"], text)
+            _log.info("wrote %s (%d kB)", written["report.html"], len(text) // 1024)
+        # an earlier run's outputs left beside these (user review: a video-only run into the folder of an IMU run
+        # kept its imu.json, which no longer matched): said, not deleted (they may be all a user has of that run)
+        mine = [n for n in _OUTPUT_NAMES if report or n != "report.html"]  # report=False: the caller writes one
+        stale = sorted(n for n in mine if n not in written and (out / n).exists())
+        if stale:
+            _log.warning("%s: %s from an earlier run left there, not from this one", out, ", ".join(stale))
         return written
 
     def save(self, data_dir: str | Path | None = None, *, meta: Mapping[str, object] | None = None) -> int:
