@@ -22,6 +22,7 @@ import contextlib
 import os
 import stat
 import tempfile
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
@@ -153,35 +154,37 @@ def read_bounded(path: str | Path, max_bytes: int, what: str = "file") -> bytes:
     Works for devices and pipes too (``/dev/zero`` ends in the size error, not in exhausted memory); a folder
     or a missing file raises :class:`InvalidInputError` naming it. A pipe (``--imu <(zcat imu.csv.gz)``) can be
     read once only, while an analysis reads its input twice (its columns, then its rows): within
-    :func:`pipes_read_again`, the last pipe's bytes are kept and given again (user review: the second read found
-    it empty, 'empty file').
+    :func:`pipes_read_again` (every command of the CLI, and :func:`walkmon.api.analyze`), a pipe's bytes are kept
+    and given again (user review: the second read found it empty, 'empty file').
     """
     p = Path(path)
+    cache: dict[str, bytes] | None = getattr(_PIPES, "cache", None)
     try:
-        piped = _PIPES[0] is not None and stat.S_ISFIFO(os.stat(p).st_mode)
+        piped = cache is not None and stat.S_ISFIFO(os.stat(p).st_mode)
     except OSError:
         piped = False
-    if piped and _PIPES[0] == str(p):
-        return bytes(_PIPES[1])
+    if piped and cache is not None and str(p) in cache:
+        return cache[str(p)]
     data = _read_bounded(p, max_bytes, what)
-    if piped:
-        _PIPES[:] = [str(p), data]
+    if piped and cache is not None:
+        cache[str(p)] = data
     return data
 
 
-#: Within :func:`pipes_read_again`: ``[path, bytes]`` of the last pipe read ('' before one); outside: ``[None]``.
-_PIPES: list[Any] = [None, b""]
+#: Per thread, within :func:`pipes_read_again`: ``cache``, the bytes of each pipe read there, by path.
+_PIPES = threading.local()
 
 
 @contextlib.contextmanager
 def pipes_read_again() -> Iterator[None]:
-    """Within it, a pipe :func:`read_bounded` reads a second time gives the bytes it gave the first time (the last
-    pipe read: one input's memory at most); outside, every read reads (a named pipe fed anew is read anew)."""
-    _PIPES[:] = ["", b""]
+    """Within it (in this thread), a pipe :func:`read_bounded` reads again gives the bytes it gave the first time;
+    outside, every read reads (a named pipe fed anew is read anew). Nested: the outer one's pipes stay known."""
+    outer = getattr(_PIPES, "cache", None)
+    _PIPES.cache = {} if outer is None else outer
     try:
         yield
     finally:
-        _PIPES[:] = [None, b""]
+        _PIPES.cache = outer
 
 
 def _read_bounded(p: Path, max_bytes: int, what: str) -> bytes:

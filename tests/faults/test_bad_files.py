@@ -3,6 +3,7 @@ traceback, never exit 0 with wrong numbers (issue 12, items 1, 3, 5, 9, 12, 13).
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import shutil
@@ -136,37 +137,95 @@ def test_angles_timed_in_milliseconds_are_refused(walk: Path, tmp_path: Path, cl
     cli("indicators", tmp_path / "ms.csv", "--out", tmp_path / "o").one_line_error("is t in milliseconds?")
 
 
-def test_an_imu_file_through_a_pipe_reads_as_the_file(walk: Path, tmp_path: Path, cli) -> None:
-    """'--imu <(zcat imu.csv.gz)': a pipe, read once only, while the analysis reads its input twice (its columns,
-    then its rows); the second read found it empty, 'empty file' (user review). A named pipe fed once by a
-    writer: the same analysis as from the file."""
+class _Pipes:
+    """Named pipes, each fed once with a file's bytes by its own thread; a reader that opens one again gets its
+    end at once (as a '<(...)' pipe gives it), not a wait forever."""
+
+    def __init__(self, tmp_path: Path) -> None:
+        import threading
+
+        self.tmp_path, self.done, self.threads = tmp_path, threading.Event(), []
+
+    def __call__(self, source: Path) -> Path:
+        import threading
+
+        fifo = self.tmp_path / f"{source.name}.pipe"
+        os.mkfifo(fifo)
+
+        def feed() -> None:
+            with fifo.open("wb") as f:  # blocks until the reader opens the pipe
+                f.write(source.read_bytes())
+            while not self.done.wait(0.05):
+                try:
+                    os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+                except OSError:
+                    pass  # no reader now
+
+        self.threads.append(threading.Thread(target=feed, daemon=True))
+        self.threads[-1].start()
+        return fifo
+
+    def close(self) -> None:
+        self.done.set()
+        for th in self.threads:
+            th.join(timeout=10)
+
+
+def test_inputs_through_pipes_read_as_the_files(walk: Path, tmp_path: Path, cli) -> None:
+    """'--imu <(zcat imu.csv.gz)': a pipe, read once only, while an analysis reads its input twice (its columns,
+    then its rows); the second read found it empty, 'empty file' (user review). Named pipes fed once: the same
+    analyses as from the files: an accelerometer alone; an angles CSV through 'indicators' (review: its new
+    check read it twice); an IMU and an accelerometer calibration both piped into a fused analysis (review: a
+    cache of the last pipe alone lost the IMU to the calibration)."""
+    acc = _accelerometer_only(walk, tmp_path / "acc.csv")
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps({"bias_m_s2": [0.0, 0.0, 0.0], "matrix": np.eye(3).tolist()}))
+    video = [walk / "video.mp4", "--calib", walk / "camera.yaml", "--no-progress"]
+    runs = {"acc": (["analyze", "--imu", "{acc}"], "indicators.json"),
+            "angles": (["indicators", "{truth}"], "indicators.json"),
+            "fused": (["analyze", *video, "--imu", "{imu}", "--imu-calib", "{cal}"], "indicators.json")}
+    files = {"acc": acc, "truth": walk / "truth.csv", "imu": walk / "imu.csv", "cal": cal}
+    for name, (argv, out_name) in runs.items():
+        pipes = _Pipes(tmp_path / f"p_{name}")
+        (tmp_path / f"p_{name}").mkdir()
+        try:
+            fed = {k: pipes(v) for k, v in files.items() if "{" + k + "}" in argv}
+            piped = [a.format(**fed) if isinstance(a, str) and a.startswith("{") else a for a in argv]
+            res = cli(*piped, "--out", tmp_path / f"{name}_piped")
+            assert res.rc == 0, (name, res.err)
+        finally:
+            pipes.close()
+        plain = [a.format(**files) if isinstance(a, str) and a.startswith("{") else a for a in argv]
+        assert cli(*plain, "--out", tmp_path / f"{name}_file").rc == 0
+        got = (tmp_path / f"{name}_piped" / out_name).read_text()
+        assert got == (tmp_path / f"{name}_file" / out_name).read_text(), name
+
+
+def test_a_threads_pipes_are_its_own() -> None:
+    """The pipes' cache is per thread (review: one module-wide cache let one thread's exit empty another's)."""
     import threading
 
-    acc = _accelerometer_only(walk, tmp_path / "acc.csv")
-    fifo = tmp_path / "acc.pipe"
-    os.mkfifo(fifo)
+    from walkmon.safe_io import _PIPES, pipes_read_again
 
-    done = threading.Event()
+    seen = []
 
-    def feed() -> None:
-        with fifo.open("wb") as f:  # blocks until the analysis opens the pipe to read
-            f.write(acc.read_bytes())
-        # a reader that opens the pipe again gets its end at once (as '<(...)' would give it), not a wait forever
-        while not done.wait(0.05):
-            try:
-                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-            except OSError:
-                pass  # no reader now
+    def other() -> None:
+        with pipes_read_again():
+            seen.append(_PIPES.cache)
+        seen.append(getattr(_PIPES, "cache", None))
 
-    writer = threading.Thread(target=feed, daemon=True)
-    writer.start()
-    try:
-        assert cli("analyze", "--imu", fifo, "--out", tmp_path / "piped").rc == 0
-    finally:
-        done.set()
-        writer.join(timeout=10)
-    assert cli("analyze", "--imu", acc, "--out", tmp_path / "file").rc == 0
-    assert (tmp_path / "piped" / "indicators.json").read_text() == (tmp_path / "file" / "indicators.json").read_text()
+    with pipes_read_again():
+        mine = _PIPES.cache
+        mine["x"] = b"1"
+        th = threading.Thread(target=other)
+        th.start()
+        th.join()
+        assert _PIPES.cache is mine and mine == {"x": b"1"}
+        with pipes_read_again():  # nested: the outer one's pipes stay known
+            assert _PIPES.cache is mine
+        assert _PIPES.cache is mine
+    assert seen[0] is not mine and seen[1] is None
+    assert getattr(_PIPES, "cache", None) is None
 
 
 def test_an_empty_output_or_data_folder_is_refused(walk: Path, tmp_path: Path, cli, monkeypatch) -> None:

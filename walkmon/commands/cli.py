@@ -96,9 +96,12 @@ def _main(argv: Sequence[str] | None) -> int:
     for option in ("out", "data_dir"):
         if getattr(args, option, None) is not None and not str(getattr(args, option)).strip():
             # '' is the current folder to pathlib: files landed there unasked (user review)
-            parser.error(f"--{option.replace('_', '-')} is empty: give a folder")
+            parser.error(f"--{option.replace('_', '-')} is empty")
+    from walkmon.safe_io import pipes_read_again  # noqa: PLC0415
+
     try:
-        return int(args._run(args) or 0)
+        with pipes_read_again():  # an input given as a pipe may be read twice (its columns, then its rows)
+            return int(args._run(args) or 0)
     except WalkmonError as exc:
         why = " ".join(str(exc).splitlines())
     except FileNotFoundError as exc:
