@@ -143,19 +143,33 @@ def test_bad_input_is_one_clear_error(tmp_path: Path) -> None:
 
 
 def test_writing_beside_an_earlier_runs_files_says_so(clip, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:  # noqa: ANN001
-    """An IMU analysis, then an angles-only one into the same folder: the first run's angles.csv and imu.json stay
-    (they may be all a user has of it) but no longer match the new files; a warning names them (user review:
-    nothing said so). Into a fresh folder, no warning."""
+    """An IMU analysis, then a video-only one into the same folder: the first run's imu.json stays (it may be all
+    a user has of it) but no longer matches the new files; a warning names it (user review: nothing said so).
+    Into a fresh folder, or 'indicators' into the folder its angles.csv came from (review: the command's own
+    input was named), no warning."""
     import logging
 
     out = tmp_path / "out"
     walkmon.analyze(imu=clip.video_path.parent / "imu.csv").write(out)
-    table = read_table(clip.video_path.parent / "truth.csv", ("t", "pitch", "yaw", "roll"))
-    again = walkmon.analyze_angles(table["t"], np.column_stack([table[c] for c in ("pitch", "yaw", "roll")]))
+    video_only = walkmon.analyze(clip.video_path)
     with caplog.at_level(logging.WARNING, logger="walkmon.api"):
-        again.write(tmp_path / "fresh", angles=False)
+        video_only.write(tmp_path / "fresh")
+        video_only.write(tmp_path / "fresh", angles=False)
         assert not caplog.records
-        again.write(out, angles=False)
+        video_only.write(out)
     (rec,) = caplog.records
-    assert "angles.csv, imu.json from an earlier run" in rec.getMessage()
+    assert "imu.json from an earlier run" in rec.getMessage()
     assert (out / "imu.json").exists()  # said, not deleted
+
+
+def test_an_accelerometer_session_saved_without_its_samples_is_refused(tmp_path: Path) -> None:
+    """An accelerometer's analysis saved before its samples were stored: its angles are gravity's low-passed
+    pitch and roll, yaw NULL. Its report read 'no walking bout', confidently (review; before that, '0 frames with
+    angles'): one line saying what it is and what to run."""
+    from walkmon.live.session_log import record_offline_session
+
+    t = np.arange(0.0, 20.0, 0.01)
+    angles = np.column_stack([np.sin(t), np.full(t.size, np.nan), np.cos(t)])
+    sid = record_offline_session(tmp_path / "db", t, angles, source="IMU only: acc.csv", imu="acc.csv")
+    with pytest.raises(InvalidInputError, match="saved without its samples"):
+        walkmon.load_session(sid, tmp_path / "db").analyze()

@@ -200,7 +200,10 @@ class Analysis:
             _log.info("wrote %s (%d kB)", written["report.html"], len(text) // 1024)
         # an earlier run's outputs left beside these (user review: a video-only run into the folder of an IMU run
         # kept its imu.json, which no longer matched): said, not deleted (they may be all a user has of that run)
-        mine = [n for n in _OUTPUT_NAMES if report or n != "report.html"]  # report=False: the caller writes one
+        # what this call writes in its configuration: with angles=False (indicators, report ID) angles.csv and
+        # imu.json may be the command's own input (review), and with report=False the caller writes report.html
+        mine = [n for n in _OUTPUT_NAMES if (angles or n not in ("angles.csv", "imu.json"))
+                and (report or n != "report.html")]
         stale = sorted(n for n in mine if n not in written and (out / n).exists())
         if stale:
             _log.warning("%s: %s from an earlier run left there, not from this one", out, ", ".join(stale))
@@ -262,9 +265,10 @@ def _baseline(baseline: Any) -> tuple[Indicators | None, str | None]:
     raise InvalidInputError(msg)
 
 
-#: The longest median interval between angle samples (s) an analysis takes: 5 per second, slower than any video
-#: a step rhythm (1.5-2 per second) can be seen in; longer is t in other units than seconds.
-MAX_ANGLE_INTERVAL_S = 0.2
+#: The longest median interval between angle samples (s) an analysis takes: one a second, slower than any video a
+#: step rhythm could be seen in, but far from t in milliseconds (frames 33 s apart at 30 fps); 0.2 s refused a 4 fps
+#: walk 'analyze' itself had analysed (review).
+MAX_ANGLE_INTERVAL_S = 1.0
 
 
 def analyze_angles(
@@ -294,7 +298,7 @@ def analyze_angles(
         # phase of hours, exit 0 (user review; the IMU's reader refuses the same, walkmon.imu.units)
         dt = float(np.median(np.diff(t)))
         msg = (f"angles {dt:g} apart on median ({1.0 / dt:.3g} per unit of t): t must be in seconds and the angles "
-               f"at {1.0 / MAX_ANGLE_INTERVAL_S:g} per second or more (is t in milliseconds?)")
+               f"at least {1.0 / MAX_ANGLE_INTERVAL_S:g} a second (is t in milliseconds?)")
         raise InvalidInputError(msg)
     columns: dict[str, Any] = {"t": t, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2]}
     if abs_angles_deg is not None:
@@ -513,7 +517,7 @@ def _read_imu(imu_path: str | Path) -> tuple[Any, dict[str, Any]]:
     units: list[str] = []
     rec = read_imu_csv(imu_path, units_out=units)
     gyro, acc = rec.gyroscope_rad_s, rec.accelerometer_m_s2
-    if np.all(np.ptp(gyro, axis=0) == 0.0) and np.ptp(np.linalg.norm(acc, axis=1)) > 0.0:
+    if np.all(np.ptp(gyro, axis=0) == 0.0) and float(np.std(np.linalg.norm(acc, axis=1))) > _MOVING_ACC_SD_M_S2:
         # every row the same rate while the accelerometer moves: no gyroscope there (a logger writing zeros for a
         # missing or dead one). Analysed, it read no turn and labelled a real course left_shoulder_down, where its
         # own gyroscope, or its accelerometer alone, gave no label (user review)
@@ -522,6 +526,11 @@ def _read_imu(imu_path: str | Path) -> tuple[Any, dict[str, Any]]:
                "columns (t,ax,ay,az) to analyse the accelerometer alone")
         raise InvalidInputError(msg)
     return rec, ({"units": units} if units else {})
+
+
+#: An accelerometer whose magnitude varies by more than this (SD, m/s²) moves: a still sensor's noise is 0.01-0.05,
+#: a walk's 1-3 (a still recording with a gyroscope that reads exactly zero at rest is no dead gyroscope; review).
+_MOVING_ACC_SD_M_S2 = 0.2
 
 
 def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) -> FusionSettings:
@@ -816,6 +825,13 @@ class Session:
         if t.size < 16:
             msg = f"session {self.id} has {t.size} frames with angles: too few for a report"
             raise InvalidInputError(msg)
+        imu_input = self._imu_input(t0)
+        if no_yaw and imu_input is None:
+            # an accelerometer's analysis saved without its samples (before 2026-11-28): its angles are gravity's
+            # low-passed pitch and roll, which hold no steps (review: read as 'no walking bout', confidently)
+            msg = (f"session {self.id}: the angles of an accelerometer alone, saved without its samples: they hold "
+                   "no steps; analyse the accelerometer's file again with 'walkmon analyze --imu FILE --save'")
+            raise InvalidInputError(msg)
         cal = self.calibrations
         reference = np.array([cal["pitch"][0], cal["yaw"][0], cal["roll"][0]], dtype=float) if len(cal) else None
         r = self.record
@@ -825,7 +841,7 @@ class Session:
         if absolute is not None:
             columns.update(pitch_abs=absolute[:, 0], roll_abs=absolute[:, 1])
         return _gait_stage(columns, baseline=baseline, mode="walkmon", reference_deg=reference, meta=meta,
-                           imu_input=self._imu_input(t0), no_yaw=no_yaw)
+                           imu_input=imu_input, no_yaw=no_yaw)
 
     def _imu_input(self, t0: float) -> Any:
         """The raw IMU samples an offline analysis stored (:meth:`Analysis.save`), on the frames' time base less

@@ -177,7 +177,7 @@ def read_text_column(path: str | Path, name: str) -> list[str] | None:
     from walkmon.safe_io import MAX_TABLE_BYTES, read_bounded  # noqa: PLC0415
 
     try:
-        text = read_bounded(Path(path), MAX_TABLE_BYTES, "CSV table").decode("utf-8")
+        text = read_bounded(Path(path), MAX_TABLE_BYTES, "CSV table").decode("utf-8-sig")
         rows = [r for r in csv.reader(io.StringIO(text, newline="")) if r and any(c.strip() for c in r)]
     except (UnicodeDecodeError, csv.Error):
         return None  # read_table has already said what is wrong with such a file

@@ -237,6 +237,14 @@ def test_an_empty_output_or_data_folder_is_refused(walk: Path, tmp_path: Path, c
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_slow_video_is_no_millisecond_clock(tmp_path: Path, cli) -> None:
+    """A walk's angles at 4 a second: 'analyze' takes such a video, and 'indicators' refused its angles as timed
+    in milliseconds with a first bound of 0.2 s (review); analysed."""
+    assert cli("simulate", "--no-video", "--walk", "normal:10", "--fps", "4", "--out", tmp_path / "sim").rc == 0
+    res = cli("indicators", tmp_path / "sim" / "truth.csv", "--out", tmp_path / "o")
+    assert res.rc == 0, res.err
+
+
 def test_a_csv_with_a_byte_order_mark_reads_as_without(walk: Path, tmp_path: Path, cli) -> None:
     """A spreadsheet's 'CSV UTF-8' starts with a byte-order mark; it read as 'missing column(s) t; header is t,..'
     (user review). The same analysis as without it."""
@@ -246,6 +254,19 @@ def test_a_csv_with_a_byte_order_mark_reads_as_without(walk: Path, tmp_path: Pat
     for name, path in (("plain", plain), ("bom", bom)):
         assert cli("analyze", "--imu", path, "--out", tmp_path / name).rc == 0
     assert (tmp_path / "bom" / "indicators.json").read_text() == (tmp_path / "plain" / "indicators.json").read_text()
+
+
+def test_a_still_sensor_whose_gyroscope_reads_zero_at_rest_is_analysed(tmp_path: Path, cli) -> None:
+    """A sensor lying still, its gyroscope reading exactly 0 (a quantised part at rest), its accelerometer only
+    noise: no dead gyroscope (review: any noise counted as moving); analysed: no walk."""
+    rng = np.random.default_rng(3)
+    rows = "".join(f"{i / 100:.2f},0,0,0,{rng.normal(0, 0.02):.5f},{9.81 + rng.normal(0, 0.02):.5f},"
+                   f"{rng.normal(0, 0.02):.5f}\n" for i in range(3000))
+    imu = tmp_path / "still.csv"
+    imu.write_text("t,gx,gy,gz,ax,ay,az\n" + rows)
+    res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
+    assert res.rc == 0, res.err
+    assert "no walking bout" in res.out or "walking 0.0 s" in res.out
 
 
 def test_dead_accelerometer_only_file_is_refused(tmp_path: Path, cli) -> None:

@@ -351,8 +351,8 @@ def _absolute(doc: Mapping[str, Any], th: PostureThresholds) -> tuple[str, list[
         # no yaw swing (an accelerometer alone): whether the sway is the paper's poor balance is not known, so no
         # label at all (user review: '--mode paper' called such a walk normal, 'total swing nan deg < 16 deg')
         return "unclassified", [
-            f"total swing not measured (yaw swing {_axis(doc, 'yaw', 'swing_mean'):.1f} deg: no gyroscope?): the "
-            f"sway rule of the paper's labels cannot be applied"]
+            "total swing not measured (no yaw swing: no gyroscope?): the sway rule of the paper's labels cannot be "
+            "applied"]
     if math.isfinite(total) and total >= th.drag_total_swing_deg:
         alternating, seen = _alternating(doc, th)
         if not alternating:
