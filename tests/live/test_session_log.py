@@ -277,6 +277,16 @@ def test_a_saved_imu_analysis_reports_as_analyzed_and_counts_in_the_history(
 
     html = session_report_html(Store(data), 1)
     assert f"{reported['cadence_spm']:.1f}" in html and "Per second, from the gait analysis" in html
+    # exported, the samples analyse again as they did (review: an accelerometer's gx,gy,gz exported empty, and
+    # every row was refused as non-finite)
+    assert main(["sessions", "export", "1", "--data-dir", str(data), "--out", str(tmp_path / "exp")]) == 0
+    header = (tmp_path / "exp" / "imu.csv").read_text().splitlines()[0]
+    assert header == ("t,gx,gy,gz,ax,ay,az" if kind == "imu" else "t,ax,ay,az")
+    assert main(["analyze", "--imu", str(tmp_path / "exp" / "imu.csv"), "--out", str(tmp_path / "again")]) == 0
+    capsys.readouterr()
+    again = json.loads((tmp_path / "again" / "indicators.json").read_text())
+    assert again["cadence_spm"] == pytest.approx(analysed["cadence_spm"], rel=1e-3)
+    assert [b["n_steps"] for b in again["bouts"]] == [b["n_steps"] for b in analysed["bouts"]]
     # the history: the recording's length, and its walking seconds as the truth has them (turns: none here)
     truth = read_table(sim / "truth_timeline.csv", ("t",))
     activity = [line.split(",")[1] for line in (sim / "truth_timeline.csv").read_text().splitlines()[1:]]

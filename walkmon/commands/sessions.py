@@ -129,6 +129,11 @@ def export_session(data_dir: Path, session_id: int, out_dir: Path, fmt: str = "c
         data = {_RENAME.get(c, c): _clean(c, v) for c, v in cols.items()}
         if name == "hops":
             data.pop("json", None)
+        if name == "imu" and cols.get("t_s") and all(v is None for c in ("gx", "gy", "gz") for v in cols.get(c, [])):
+            # an accelerometer alone: its samples as 't,ax,ay,az', which 'walkmon analyze --imu' reads (review: with
+            # gx,gy,gz empty, every row was refused as non-finite)
+            for c in ("gx", "gy", "gz"):
+                data.pop(c, None)
         path = out_dir / f"{EXPORT_NAMES[name]}.{fmt}"
         if fmt == "csv":
             with atomic_write(path, "w", newline="", encoding="utf-8") as fh:  # temp + rename, never via a link
