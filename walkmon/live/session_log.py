@@ -632,6 +632,12 @@ def read_session_table(conn: sqlite3.Connection, session_id: int, table: str) ->
     return {c: [r[i] for r in rows] for i, c in enumerate(cols)}
 
 
+#: An offline analysis is stored in transactions of this many rows: an hour of a 200 Hz IMU in one held the
+#: database's write lock for ~2 s, which a 'walkmon live' writing beside it waits out only up to its 10 s timeout
+#: on a slow card (review).
+_OFFLINE_COMMIT_ROWS = 20_000
+
+
 def record_offline_session(
     data_dir: str | Path,
     t_s: Iterable[float],
@@ -672,11 +678,15 @@ def record_offline_session(
         log.add_frame(t, a, n_inl, model, status,
                       abs_angles_deg=None if columns["abs"] is None else columns["abs"][i],
                       fused=None if columns["fused"] is None else bool(columns["fused"][i]))
+        if (i + 1) % _OFFLINE_COMMIT_ROWS == 0:
+            log.flush()
     if imu_samples is not None:
         t_imu, gyro, acc = imu_samples
         no_gyro = (math.nan, math.nan, math.nan)
         for i, ti in enumerate(t_imu):
             log.add_imu(float(ti), no_gyro if gyro is None else gyro[i], acc[i])
+            if (i + 1) % _OFFLINE_COMMIT_ROWS == 0:
+                log.flush()
     for row in timeline or ():
         log.add_timeline_hop(*row)
     log.close("complete")
