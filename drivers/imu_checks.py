@@ -13,7 +13,10 @@ A sample is implausible when (limits in :class:`ImuLimits`):
 * ``accel_range``: a specific-force component beyond ±32 g (MEMS accelerometers: ±2 .. ±32 g);
 * ``no_gravity``: the specific force is under 0.1 g: a worn sensor always feels gravity plus the walk's
   accelerations (a walk's lowest is about 0.5 g); an all-zero sensor (dead, unpowered, not initialised) fails;
-* ``time_back``: the time stamp is earlier than the previous accepted sample's (a corrupted or reordered line).
+* ``time_back``: the time stamp is earlier than the previous accepted sample's (a corrupted or reordered line);
+* ``time_jump`` (a recording, :func:`plausible_rows`): one row's time stamp far ahead of the rows around it, the
+  next row continuing from the one before (a corrupted time in one line); without this rule every row after it
+  read as going back, and one bad line refused a whole file as a clock reset (user review).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from numpy.typing import NDArray
 
 from walkmon.consts import GRAVITY_MS2
 
-__all__ = ["DEFAULT_IMU_LIMITS", "ImuLimits", "ImuPlausibility", "implausible_reason", "plausible_rows"]
+__all__ = ["DEFAULT_IMU_LIMITS", "ImuLimits", "ImuPlausibility", "implausible_reason", "plausible_rows", "time_jumps"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,6 +120,9 @@ def plausible_rows(t_s: NDArray[np.float64], gyroscope_rad_s: NDArray[np.float64
         bad = finite & (norm < limits.min_accel_norm_m_s2) & (reasons == "")
         reasons[bad] = "no_gravity"
     keep = reasons == ""
+    jump = np.flatnonzero(keep)[time_jumps(t[keep])]
+    keep[jump] = False
+    reasons[jump] = "time_jump"
     idx = np.flatnonzero(keep)
     if idx.size:  # against the newest earlier candidate: a row rejected for time never raises that maximum
         before = np.maximum.accumulate(np.concatenate([[-math.inf], t[idx][:-1]]))
@@ -124,3 +130,14 @@ def plausible_rows(t_s: NDArray[np.float64], gyroscope_rad_s: NDArray[np.float64
         keep[back] = False
         reasons[back] = "time_back"
     return keep, Counter(str(r) for r in reasons[~keep])
+
+
+def time_jumps(t_s: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Rows of the sequence ``t_s`` whose time is ahead of the next row's while the next row continues after the
+    row before: one corrupted time stamp, not the rows after it going back (see ``time_jump``)."""
+    t = np.asarray(t_s, dtype=float).reshape(-1)
+    out = np.zeros(t.size, dtype=bool)
+    if t.size >= 3:
+        with np.errstate(invalid="ignore"):
+            out[1:-1] = (t[1:-1] > t[2:]) & (t[2:] > t[:-2])
+    return out

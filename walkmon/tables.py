@@ -344,14 +344,16 @@ def _keep_plausible(
     """The rows :func:`walkmon.drivers.imu_checks.plausible_rows` keeps; the skipped ones counted into
     ``rejected`` (with any the reader skipped as malformed) and told in one warning line; fewer than ``min_rows``
     kept is InvalidInputError (one line)."""
-    from walkmon.drivers.imu_checks import plausible_rows  # noqa: PLC0415  (pure: the plausibility rules)
+    from walkmon.drivers.imu_checks import plausible_rows, time_jumps  # noqa: PLC0415  (pure: the rules)
 
     keep, why = plausible_rows(t, gyro, acc)
     # rows earlier than a row before them (repeated time stamps, a logger writing rows twice, are dropped as
     # time_back but are no clock reset: review found 1 % of them refusing a file)
-    # ... among the rows plausible but for their time: a corrupt row's far-future time is no reset (review)
+    # ... among the rows plausible but for their time: a corrupt row's far-future time is no reset (review), nor
+    # is one row's time far ahead of the rows about it (user review: every row after it read as going back)
     values_ok, _ = plausible_rows(np.arange(t.size, dtype=float), gyro, acc)
     tt = t[values_ok & np.isfinite(t)]
+    tt = tt[~time_jumps(tt)]
     earlier = tt[1:] < np.maximum.accumulate(tt)[:-1] if tt.size > 1 else np.zeros(0, bool)
     if int(earlier.sum()) > max(1, 0.01 * n_total):
         # a clock reset (or files joined): the rows after it are not a few late samples to drop

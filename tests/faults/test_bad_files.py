@@ -269,6 +269,29 @@ def test_a_still_sensor_whose_gyroscope_reads_zero_at_rest_is_analysed(tmp_path:
     assert "no walking bout" in res.out or "walking 0.0 s" in res.out
 
 
+def test_one_row_timed_far_ahead_is_skipped_not_a_clock_reset(walk: Path, tmp_path: Path, cli, caplog) -> None:
+    """One corrupted line whose time is 10 s ahead of the rows about it: every later row read as going back, and
+    the whole file was refused as a clock reset, in analyze, live and batch (user review). Now that row is
+    skipped and counted (time_jump), and the analysis is the clean file's."""
+    lines = (walk / "imu.csv").read_text().splitlines()
+    bad = list(lines)
+    row = bad[5].split(",")
+    row[0] = f"{float(row[0]) + 10.0:.6f}"
+    bad[5] = ",".join(row)
+    (tmp_path / "jump.csv").write_text("\n".join(bad) + "\n")
+    (tmp_path / "clean.csv").write_text("\n".join(lines[:5] + lines[6:]) + "\n")
+    res = cli("analyze", "--imu", tmp_path / "jump.csv", "--out", tmp_path / "j")
+    assert res.rc == 0, res.err
+    assert any("(time_jump 1)" in r.getMessage() for r in caplog.records)
+    assert cli("analyze", "--imu", tmp_path / "clean.csv", "--out", tmp_path / "c").rc == 0
+    got = json.loads((tmp_path / "j" / "indicators.json").read_text())
+    want = json.loads((tmp_path / "c" / "indicators.json").read_text())
+    assert [b["n_steps"] for b in got["bouts"]] == [b["n_steps"] for b in want["bouts"]]
+    assert got["walking_s"] == pytest.approx(want["walking_s"], abs=0.05)
+    incl = [doc["axes"]["pitch"]["inclination_mean"] for doc in (got, want)]
+    assert incl[0] == pytest.approx(incl[1], abs=0.05)
+
+
 def test_dead_accelerometer_only_file_is_refused(tmp_path: Path, cli) -> None:
     """The accelerometer-only reader applies the imu.csv reader's plausibility rules (it raised a confusing
     error about angles, with a numpy warning, before)."""
