@@ -284,8 +284,9 @@ def batch(
     import pyarrow  # noqa: F401, PLC0415
 
     cl, cluster, owned = _client(workers, scheduler, client, dashboard_address, allowed_failures)
+    prepared: Path | None = None
     try:
-        out_path = _prepare_out(out_path)
+        prepared = out_path = _prepare_out(out_path)
         return _run(cl, recs, out_path, options, resume, log=log, progress=progress,
                     dashboard=_dashboard(cl) if (cluster is None or dashboard_address) else None,
                     allowed_failures=allowed_failures, on_start=on_start)
@@ -294,6 +295,12 @@ def batch(
             cl.close()
         if cluster is not None:
             cluster.close()
+        # the temporary folders only once no worker of ours can still write into one: removed under a worker
+        # that then moved its half-emptied folder into place, a Ctrl-C replaced complete earlier results with a
+        # folder holding report.html alone (user review). Another's cluster may still run our tasks: its folders
+        # are left, and the next run's _prepare_out clears them.
+        if prepared is not None and cluster is not None:
+            shutil.rmtree(prepared / STATE_DIR / "tmp", ignore_errors=True)
 
 
 def _run(cl: Any, recs: Sequence[Recording], out_path: Path, options: Mapping[str, Any], resume: bool, *,
@@ -309,10 +316,10 @@ def _run(cl: Any, recs: Sequence[Recording], out_path: Path, options: Mapping[st
     bar = BatchProgress(len(tasks), log=log, enabled=progress)
     rows: dict[str, dict[str, Any]] = {}
     bouts: list[dict[str, Any]] = []
+    futures: dict[Any, dict[str, Any]] = {}
     try:
         if dashboard and log is not None:
             log.write(f"Dask dashboard: {dashboard}\n")
-        futures = {}
         for t in tasks:
             f = cl.submit(analyze_task, t, key=f"walkmon-batch-{t['name']}-{os.urandom(4).hex()}", pure=False)
             futures[f] = t
@@ -356,7 +363,8 @@ def _run(cl: Any, recs: Sequence[Recording], out_path: Path, options: Mapping[st
         write_manifest(out_path, manifest)
         summary = summary_frame(rows.values())
         write_tables(out_path, summary, bouts_frame(bouts))
-        shutil.rmtree(out_path / STATE_DIR / "tmp", ignore_errors=True)
+        if all(f.done() for f in futures):  # no task of ours can still write into one (else: see batch())
+            shutil.rmtree(out_path / STATE_DIR / "tmp", ignore_errors=True)
     return summary
 
 

@@ -19,7 +19,7 @@ import shutil
 import sys
 import time
 import uuid
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -35,16 +35,18 @@ STATE_DIR = ".walkmon-batch"
 
 
 def run_analysis(video: str | None, imu: str | None, calib: str | None, options: Mapping[str, Any],
-                 out_dir: Path) -> dict[str, Any]:
+                 out_dir: Path, written: list[str] | None = None) -> dict[str, Any]:
     """``walkmon analyze [VIDEO] [--imu IMU] [--calib CALIB] ... --out out_dir``: the one call into the analysis
     (:func:`walkmon.api.analyze`, which the command runs too) and its files; returns the indicators.json document.
-    """
+    ``written``: the names of the files written are appended to it."""
     from walkmon.api import analyze  # noqa: PLC0415
 
     result = analyze(video, imu=imu, calib=calib, method=str(options["method"]), baseline=options.get("baseline"),
                      mode=str(options["mode"]), imu_filter=str(options["imu_filter"]),
                      imu_extrinsics=str(options["imu_extrinsics"]), imu_calib=options.get("imu_calib"))
-    result.write(out_dir)
+    files = result.write(out_dir)
+    if written is not None:
+        written.extend(files)
     return result.indicators
 
 
@@ -139,8 +141,14 @@ def _complete(previous: Mapping[str, Any] | None, inputs: Mapping[str, Any], opt
         return False
 
 
-def _replace_folder(tmp: Path, final: Path, state: Path) -> None:
-    """Move the finished ``tmp`` folder to ``final``, replacing an earlier result (never through a link)."""
+def _replace_folder(tmp: Path, final: Path, state: Path, expected: Sequence[str] = ()) -> None:
+    """Move the finished ``tmp`` folder to ``final``, replacing an earlier result (never through a link).
+    ``expected``: the files the analysis wrote there; each must still be there, so a folder emptied under the
+    worker is never moved over a complete result."""
+    missing = [n for n in expected if not (tmp / n).is_file()]
+    if missing:
+        msg = f"{tmp}: {', '.join(sorted(missing))} gone before it was moved into place (the batch was stopped?)"
+        raise InvalidInputError(msg)
     if final.is_symlink():
         msg = f"{final}: is a symbolic link; not replacing it (remove it or choose another --out)"
         raise InvalidInputError(msg)
@@ -195,11 +203,12 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
             return {"row": kept, "bouts": bouts_from_indicators(name, doc), "manifest": dict(previous)}
         tmp = state / "tmp" / f"{name}-{uuid.uuid4().hex[:8]}"
         tmp.parent.mkdir(parents=True, exist_ok=True)
-        doc = run_analysis(task.get("video"), task.get("imu"), task.get("calib"), options, tmp)
+        written: list[str] = []
+        doc = run_analysis(task.get("video"), task.get("imu"), task.get("calib"), options, tmp, written)
         row.update(indicator_columns(doc))
         bouts = bouts_from_indicators(name, doc)
         outputs = _outputs(tmp)
-        _replace_folder(tmp, final, state)
+        _replace_folder(tmp, final, state, written)
         tmp = None
         row["status"] = "ok"
         manifest = {"inputs": inputs, "options": options, "outputs": outputs}
