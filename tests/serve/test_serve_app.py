@@ -232,6 +232,34 @@ def test_a_taken_port_is_one_line(python_cmd: list[str], db: Path) -> None:
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "cannot listen on 127.0.0.1" in r.stderr
 
 
+def test_the_live_monitors_dashboard_on_a_taken_port_is_one_line(python_cmd: list[str], tmp_path: Path) -> None:
+    """'walkmon live' with [serve] enabled on a port another program holds: the monitor goes on without a
+    dashboard, saying so in one line (user review: uvicorn's error line, then ~30 lines of traceback)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        cfg = tmp_path / "c.toml"
+        cfg.write_text(f"[serve]\nenabled = true\nport = {port}\n")
+        r = subprocess.run([*python_cmd, "live", "--camera", "sim:normal:2?realtime=0&width=64&height=48", "--config",
+                            str(cfg), "--data-dir", str(tmp_path / "d"), "--status", "none"],
+                           capture_output=True, text=True, timeout=120, check=False)
+    assert r.returncode == 0, r.stderr
+    assert "Traceback" not in r.stderr
+    (line,) = [x for x in r.stderr.splitlines() if "dashboard" in x]
+    assert f"dashboard not started: cannot listen on 127.0.0.1:{port}" in line
+
+
+def test_an_ipv6_dashboard_address_is_bracketed() -> None:
+    """User review: 'serve --host ::1' printed http://::1:8765/, which no browser opens."""
+    from walkmon.serve.server import url
+
+    assert url("::1", 8765) == "http://[::1]:8765/"
+    assert url("127.0.0.1", 8765) == "http://127.0.0.1:8765/"
+
+
 def test_a_covered_lens_is_drawn_as_unknown_not_as_standing(tmp_path: Path, write_session: Any, make_hop: Any) -> None:
     """Hops in which the camera measured nothing (unknown, with that reason) keep 'unknown' in the timeline, which
     the band draws in its own grey; other unknown hops (the first seconds, older logs) stay 'not walking'."""

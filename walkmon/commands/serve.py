@@ -25,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from walkmon.errors import ConfigError  # noqa: PLC0415
     from walkmon.live.config import DEFAULT_CONFIG, read_config  # noqa: PLC0415
     from walkmon.live.session_log import default_data_dir  # noqa: PLC0415
-    from walkmon.serve.server import make_server, warm_up  # noqa: PLC0415
+    from walkmon.serve.server import check_port, make_server, url, warm_up  # noqa: PLC0415
 
     cfg = read_config(args.config) if args.config else DEFAULT_CONFIG
     host = args.host or cfg.serve.host
@@ -36,25 +36,8 @@ def run(args: argparse.Namespace) -> int:
     token = args.token if args.token is not None else cfg.serve.token
     data_dir = Path(args.data_dir or cfg.session.data_dir or default_data_dir()).expanduser()
     server = make_server(data_dir, host, port, token)
-    _check_port(host, port)
+    check_port(host, port)
     warm_up(server)
-    sys.stderr.write(f"walkmon dashboard on http://{host}:{port}/ (database {data_dir}; Ctrl-C stops)\n")
+    sys.stderr.write(f"walkmon dashboard on {url(host, port)} (database {data_dir}; Ctrl-C stops)\n")
     server.run()
     return 0
-
-
-def _check_port(host: str, port: int) -> None:
-    """A port already taken (or an address not on this machine) is one line and exit 2, not uvicorn's log."""
-    import socket  # noqa: PLC0415
-
-    from walkmon.errors import ConfigError  # noqa: PLC0415
-
-    try:
-        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
-        family, _, _, _, addr = infos[0]
-        with socket.socket(family, socket.SOCK_STREAM) as s:
-            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            s.bind(addr)
-    except OSError as exc:
-        msg = f"cannot listen on {host}:{port}: {exc.strerror or exc}"
-        raise ConfigError(msg) from exc

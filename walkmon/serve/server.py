@@ -10,7 +10,7 @@ from typing import Any
 
 from walkmon.errors import ConfigError
 
-__all__ = ["DashboardThread", "check_binding", "make_server", "warm_up"]
+__all__ = ["DashboardThread", "check_binding", "check_port", "make_server", "url", "warm_up"]
 
 _log = logging.getLogger(__name__)
 
@@ -26,6 +26,27 @@ def check_binding(host: str, token: str) -> None:
     if token and len(token) < 12:
         msg = "the token must have at least 12 characters"
         raise ConfigError(msg)
+
+
+def check_port(host: str, port: int) -> None:
+    """A port already taken (or an address not on this machine) is one ConfigError line, not uvicorn's log (and,
+    in a thread of 'walkmon live', its traceback: user review)."""
+    import socket  # noqa: PLC0415
+
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+        family, _, _, _, addr = infos[0]
+        with socket.socket(family, socket.SOCK_STREAM) as s:
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            s.bind(addr)
+    except OSError as exc:
+        msg = f"cannot listen on {host}:{port}: {exc.strerror or exc}"
+        raise ConfigError(msg) from exc
+
+
+def url(host: str, port: int) -> str:
+    """The dashboard's address: an IPv6 host in brackets (``http://[::1]:8765/``; user review: ``::1:8765``)."""
+    return f"http://[{host}]:{port}/" if ":" in host else f"http://{host}:{port}/"
 
 
 def make_server(data_dir: str | Path, host: str = "127.0.0.1", port: int = 8765, token: str = "") -> Any:
@@ -64,16 +85,19 @@ class DashboardThread:
 
     def __init__(self, data_dir: str | Path, host: str, port: int, token: str = "") -> None:
         self.server = make_server(data_dir, host, port, token)
-        self.url = f"http://{host}:{port}/"
+        self.host, self.port = host, port
+        self.url = url(host, port)
         self._thread = threading.Thread(target=self._run, name="walkmon-dashboard", daemon=True)
 
     def _run(self) -> None:
         try:
             self.server.run()
-        except BaseException:  # a failing dashboard must never end the monitoring
-            _log.exception("dashboard server failed")
+        except BaseException as exc:  # noqa: BLE001 - a failing dashboard must never end the monitoring (one line)
+            _log.warning("dashboard stopped: %s", exc if str(exc) else type(exc).__name__)
 
     def start(self) -> DashboardThread:
+        """Start serving (ConfigError, one line, when the port is taken: the monitor goes on without it)."""
+        check_port(self.host, self.port)
         self._thread.start()
         warm_up(self.server)
         return self
