@@ -49,12 +49,16 @@ python3 -m venv "$PREFIX/venv"
 "$PREFIX/venv/bin/pip" install "$SRC_DIR$EXTRAS"
 
 echo "== configuration"
+# readable by root and the service only: it may hold the dashboard's token, apprise URLs with credentials and
+# the wearer's name (an older install made it 0644)
 if [ ! -e "$CONF_DIR/walkmon.toml" ]; then
-    install -m 0644 "$SRC_DIR/deploy/walkmon.toml" "$CONF_DIR/walkmon.toml"
+    install -m 0640 -o root -g walkmon "$SRC_DIR/deploy/walkmon.toml" "$CONF_DIR/walkmon.toml"
 else
     echo "keeping existing $CONF_DIR/walkmon.toml"
+    chgrp walkmon "$CONF_DIR/walkmon.toml"
+    chmod o-rwx,g-w "$CONF_DIR/walkmon.toml"
 fi
-"$PREFIX/venv/bin/python" -c "from walkmon.live.config import read_config; read_config('$CONF_DIR/walkmon.toml')"
+"$PREFIX/venv/bin/walkmon" config --check "$CONF_DIR/walkmon.toml"  # as 'walkmon live' reads it: URLs, files
 
 echo "== udev rule"
 install -m 0644 "$SRC_DIR/deploy/99-walkmon.rules" /etc/udev/rules.d/99-walkmon.rules
@@ -63,6 +67,12 @@ udevadm trigger 2>/dev/null || true
 
 echo "== systemd unit"
 install -m 0644 "$SRC_DIR/systemd/walkmon.service" /etc/systemd/system/walkmon.service
+# the unit allows no IP sockets: a dashboard ([serve] enabled) or apprise alerts need the network drop-in
+if "$PREFIX/venv/bin/python" -c "import sys; from walkmon.live.config import read_config; \
+c = read_config('$CONF_DIR/walkmon.toml'); sys.exit(0 if c.serve.enabled or c.sinks.apprise_urls else 1)"; then
+    install -D -m 0644 "$SRC_DIR/systemd/walkmon-network.conf" /etc/systemd/system/walkmon.service.d/network.conf
+    echo "dashboard or apprise alerts configured: installed the network drop-in (walkmon.service.d/network.conf)"
+fi
 systemctl daemon-reload
 if [ "$ENABLE" -eq 1 ]; then
     systemctl enable --now walkmon.service

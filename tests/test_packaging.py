@@ -38,6 +38,23 @@ def test_walkmon_config_check_rejects_a_bad_file_in_one_line(tmp_path: Path, cap
     assert err.count("\n") == 1 and "walkmon.toml" in err
 
 
+@pytest.mark.parametrize(("body", "needle"), [
+    ('[camera]\ncalib = "{tmp}/none.yaml"\n', "none.yaml"),
+    ('[imu]\ncalibration = "{tmp}/none.json"\n', "none.json"),
+    ('[camera]\nurl = "ftp:x"\n', "unknown scheme 'ftp'"),
+    ('[imu]\nurl = "serial:/dev/x?baud=fast"\n', "baud"),
+])
+def test_walkmon_config_check_refuses_what_live_refuses(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                       body: str, needle: str) -> None:
+    """A calibration file that is not there, a URL 'walkmon live' cannot use: 'config --check' said ok, then the
+    service exited 2 at every restart (user review). One line, exit 2, as live says it."""
+    cfg = tmp_path / "walkmon.toml"
+    cfg.write_text(body.format(tmp=tmp_path), encoding="utf-8")
+    assert main(["config", "--check", str(cfg)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and needle in err
+
+
 def test_version_is_written_once() -> None:
     project = tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))
     assert "version" not in project["project"] and "version" in project["project"]["dynamic"]

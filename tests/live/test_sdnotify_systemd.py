@@ -30,6 +30,25 @@ def test_unit_has_the_service_contract(unit_settings: dict[str, list[str]]) -> N
     (exec_start,) = s["ExecStart"]
     assert " live " in exec_start and "--config /etc/walkmon/walkmon.toml" in exec_start
     assert "--data-dir /var/lib/walkmon" in exec_start
+    # a config or input walkmon refuses (exit 2) is no crash to restart every 5 s (user review)
+    assert s["RestartPreventExitStatus"] == ["2"]
+
+
+def test_the_network_drop_in_opens_loopback_for_the_dashboard() -> None:
+    """The unit allows no IP socket, so the dashboard thread ([serve] enabled) and apprise alerts cannot work under
+    it (user review); systemd/walkmon-network.conf adds IPv4/6 sockets and loopback, and install.sh installs it
+    when the config enables either. The config file is installed readable by root and the service only (it may
+    hold the dashboard token and apprise credentials; it was 0644)."""
+    text = (REPO / "systemd" / "walkmon-network.conf").read_text()
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.startswith("#")]
+    assert lines[0] == "[Service]"
+    (families,) = [ln for ln in lines if ln.startswith("RestrictAddressFamilies=")]
+    assert {"AF_UNIX", "AF_NETLINK", "AF_INET", "AF_INET6"} == set(families.split("=", 1)[1].split())
+    assert "IPAddressAllow=localhost" in lines
+    install = (REPO / "deploy" / "install.sh").read_text()
+    assert "systemd/walkmon-network.conf" in install and "walkmon.service.d/network.conf" in install
+    assert "install -m 0640 -o root -g walkmon" in install
+    assert 'install -m 0644 "$SRC_DIR/deploy/walkmon.toml"' not in install
 
 
 def test_unit_passes_systemd_analyze_verify(tmp_path: Path) -> None:

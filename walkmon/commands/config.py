@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import sys
 from importlib import resources
+from typing import Any
 
 NAME = "config"
 HELP = "print the documented example config (--example) or the defaults (--defaults), or check a config file"
@@ -32,6 +33,22 @@ def run(args: argparse.Namespace) -> int:
     elif args.defaults:
         sys.stdout.write(config_to_toml(DEFAULT_CONFIG))
     else:
-        read_config(args.check)
+        check_sources(read_config(args.check))
         sys.stdout.write(f"{args.check}: ok\n")
     return 0
+
+
+def check_sources(cfg: Any) -> None:
+    """What 'walkmon live' checks of a config before it opens any hardware: the camera and IMU URLs (scheme and
+    options), the camera calibration and the accelerometer calibration files. A config this passed was refused by
+    'live' (user review: a missing calibration file or an 'ftp:' URL read 'ok'; under the unit, a restart loop)."""
+    from walkmon.camera.model import read_camera_yaml  # noqa: PLC0415
+    from walkmon.commands.live import live_fusion_settings  # noqa: PLC0415
+    from walkmon.drivers.sources import open_camera, open_imu  # noqa: PLC0415
+
+    camera = open_camera(cfg.camera.url)  # constructed, nothing opened
+    if cfg.imu.url:
+        open_imu(cfg.imu.url, camera=camera)
+    if cfg.camera.calib:
+        read_camera_yaml(cfg.camera.calib)
+    live_fusion_settings(cfg.imu)  # reads [imu] calibration
