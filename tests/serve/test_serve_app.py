@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
+import os
 import sqlite3
 import subprocess
 import time
@@ -134,6 +135,15 @@ def test_live_endpoint_follows_the_unended_session(db: Path, write_session: Any,
     assert [a["kind"] for a in live["active_alerts"]] == ["lean_forward"]
     assert live["recent"]["t_s"] == [float(t) for t in range(1, 9)]
     assert not live["stale"]
+    # the monitor was killed a minute ago: a dashboard started now says stale at once (user review: 'running, not
+    # stale' for its first 5 s, the hops having changed at its first look)
+    gone = time.time() - 60.0
+    for f in db.glob("walkmon.sqlite*"):
+        os.utime(f, (gone, gone))
+    assert client(db).get("/api/live").json()["stale"]
+    # a newer live session ran and ended since: the older one, left without an end, is not running (it was)
+    write_session(db, hops, (), end=True)
+    assert client(db).get("/api/live").json()["running"] is False
 
 
 def test_token_required_and_host_checked(db: Path) -> None:

@@ -270,17 +270,30 @@ class Store:
                         "message": m} for t, k, s, v, th_, m in alerts],
         }
 
+    def _since_written_s(self) -> float:
+        """Seconds since the database (or its WAL, where a running monitor commits every 0.5 s) was last written."""
+        times = []
+        for p in (self.path, self.path.with_name(self.path.name + "-wal")):
+            try:
+                times.append(p.stat().st_mtime)
+            except OSError:
+                continue
+        return max(0.0, time.time() - max(times)) if times else 0.0
+
     # -- the running session ------------------------------------------------------------------------------
     def live(self, recent: int = 60) -> dict[str, Any]:
         """The newest live session without an end time: its newest hop, active alerts and recent hops.
 
         ``running`` is False when there is none (then ``last_session`` names the newest session). ``stale_s``:
-        seconds since the newest hop last changed, as seen by this store (a ``walkmon live`` that was killed
-        leaves a session without an end time whose hops stop).
+        seconds since the newest hop last changed, as seen by this store, or since the database was last written,
+        whichever is longer (a ``walkmon live`` that was killed leaves a session without an end time whose hops
+        stop; a store started after that saw them change at its first look: 'running, not stale' for 5 s, user
+        review). Only the newest live session can be running: an older one left without an end time is a monitor
+        that was killed before a newer one ran (it was shown running after the newer one had ended).
         """
         with self.connect() as conn:
             rows = self._session_rows(conn, "WHERE kind = 'live' AND ended_utc IS NULL AND id = "
-                                            "(SELECT MAX(id) FROM sessions WHERE kind = 'live' AND ended_utc IS NULL)")
+                                            "(SELECT MAX(id) FROM sessions WHERE kind = 'live')")
             if not rows:
                 last = conn.execute("SELECT MAX(id) FROM sessions").fetchone()[0]
                 return {"running": False, "last_session": last}
@@ -306,7 +319,7 @@ class Store:
                 if seen is None or seen[0] != newest["t_s"]:
                     self._seen[sid] = (newest["t_s"], now)
                     seen = self._seen[sid]
-            stale_s = round(now - seen[1], 1)
+            stale_s = round(max(now - seen[1], self._since_written_s()), 1)
         return {
             "running": True, "session_id": sid, "person": row.get("person") or None, "camera": row["camera"],
             "started_utc": row["started_utc"], "started_local": local_time(row["started_utc"]).isoformat(
