@@ -60,3 +60,10 @@ def test_a_folder_emptied_under_the_worker_never_replaces_a_complete_result(tmp_
         (tmp / n).write_text(f"new {n}")
     _replace_folder(tmp, final, state, names)
     assert (final / "indicators.json").read_text() == "new indicators.json"
+
+
+def test_a_device_as_baseline_is_not_called_missing(one_imu: Path, tmp_path: Path) -> None:
+    """'batch --baseline /dev/zero' said 'no such baseline file' of a file that exists (user review)."""
+    with pytest.raises(InvalidInputError, match="not a regular file"):
+        walkmon.batch([one_imu], tmp_path / "out", baseline="/dev/zero", workers=1)
+

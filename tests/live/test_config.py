@@ -51,11 +51,13 @@ def test_example_config_parses_and_is_complete() -> None:
     [
         ({"camra": {}}, "unknown config section"),
         ({"alerts": {"delay": 3}}, r"unknown key\(s\) delay"),
-        ({"alerts": {"delay_s": "soon"}}, "alerts.delay_s: expected float"),
+        ({"alerts": {"delay_s": "soon"}}, "alerts.delay_s: expected a number"),
+        # TOML's words (user review: 'expected tuple' for an array written as a string)
+        ({"sinks": {"hook_command": "x"}}, "sinks.hook_command: expected an array, got 'x'"),
         ({"alerts": {"delay_s": -1.0}}, "delay_s must be >= 0"),
         ({"alerts": {"enabled": ["lean_backward"]}}, "unknown condition"),
-        ({"pipeline": {"queue_size": 2.5}}, "expected int"),
-        ({"session": {"log_frames": 1}}, "expected bool"),
+        ({"pipeline": {"queue_size": 2.5}}, "expected a whole number"),
+        ({"session": {"log_frames": 1}}, "expected true or false"),
         ({"rotation": {"method": "slow"}}, "fast' or 'paper"),
         ({"indicators": {"gait_band_hz": [1.0]}}, "gait_band_hz"),
         ({"camera": "v4l2:/dev/video0"}, "must be a table"),

@@ -128,8 +128,8 @@ def _existing(path: str | os.PathLike[str] | None, what: str) -> str | None:
     if path is None:
         return None
     p = Path(path).expanduser().resolve()
-    if not p.is_file():
-        msg = f"{path}: no such {what} file"
+    if not p.is_file():  # a device such as /dev/zero exists: 'no such file' misled (user review)
+        msg = f"{path}: not a regular file (expected a {what} file)" if p.exists() else f"{path}: no such {what} file"
         raise InvalidInputError(msg)
     return str(p)
 

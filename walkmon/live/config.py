@@ -253,7 +253,12 @@ def _coerce(value: object, hint: object, where: str) -> object:
                 return tuple(_coerce(v, args[0], f"{where}[{i}]") for i, v in enumerate(value))
             if len(value) == len(args):
                 return tuple(_coerce(v, a, f"{where}[{i}]") for i, (v, a) in enumerate(zip(value, args, strict=True)))
-    type_name = getattr(hint, "__name__", None) or str(hint)
+    # TOML words: a tuple is written as an array (user review: 'expected tuple' for hook_command = "x")
+    type_name = {"tuple": "an array", "str": "a string", "float": "a number", "int": "a whole number",
+                 "bool": "true or false"}.get(getattr(hint, "__name__", ""), str(hint))
+    if origin is tuple:
+        args = typing.get_args(hint)
+        type_name = (f"an array of {len(args)}" if not (len(args) == 2 and args[1] is Ellipsis) else "an array")
     msg = f"{where}: expected {type_name}, got {value!r}"
     raise ConfigError(msg)
 
