@@ -199,9 +199,10 @@ class Analysis:
             write_text(written["report.html"], text)
             _log.info("wrote %s (%d kB)", written["report.html"], len(text) // 1024)
         # an earlier run's outputs left beside these (user review: a video-only run into the folder of an IMU run
-        # kept its imu.json, which no longer matched): said, not deleted (they may be all a user has of that run)
-        # what this call writes in its configuration: with angles=False (indicators, report ID) angles.csv and
-        # imu.json may be the command's own input (review), and with report=False the caller writes report.html
+        # kept its imu.json, which no longer matched) are said, not deleted (they may be all a user has of that
+        # run); only what this call writes in its configuration: with angles=False (indicators, report ID)
+        # angles.csv and imu.json may be the command's own input (review), with report=False the caller writes
+        # report.html
         mine = [n for n in _OUTPUT_NAMES if (angles or n not in ("angles.csv", "imu.json"))
                 and (report or n != "report.html")]
         stale = sorted(n for n in mine if n not in written and (out / n).exists())

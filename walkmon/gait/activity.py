@@ -105,8 +105,9 @@ STILL_WINDOW_S = 1.0  # the standing test's window (:func:`_still_samples`), s
 
 
 #: The share of a bout's time (outside handled stretches) that gravity's direction may spend more than
-#: ``reorient_deg`` from its median direction over the bout; beyond it the bout is a sensor turned by hand
-#: (:func:`_tilt_wanders`): a quarter, so a short bend or a pick-up the handling rule missed is no reason
+#: ``reorient_deg`` from its median direction (each stretch between handled ones its own); beyond it the bout is
+#: a sensor turned by hand (:func:`_tilt_wanders`): a quarter, so a short bend or a pick-up the handling rule
+#: missed is no reason
 TILT_WANDER_FRACTION = 0.25
 
 #: How far a difference of times (s) may pass a bound and still meet it: steps found on a sample grid make strides
