@@ -19,10 +19,10 @@ file given by mistake ends in one clear error instead of exhausting the memory.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import os
 import stat
 import tempfile
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
@@ -158,7 +158,7 @@ def read_bounded(path: str | Path, max_bytes: int, what: str = "file") -> bytes:
     and given again (user review: the second read found it empty, 'empty file').
     """
     p = Path(path)
-    cache: dict[str, bytes] | None = getattr(_PIPES, "cache", None)
+    cache = _PIPES.get()
     try:
         piped = cache is not None and stat.S_ISFIFO(os.stat(p).st_mode)
     except OSError:
@@ -171,20 +171,21 @@ def read_bounded(path: str | Path, max_bytes: int, what: str = "file") -> bytes:
     return data
 
 
-#: Per thread, within :func:`pipes_read_again`: ``cache``, the bytes of each pipe read there, by path.
-_PIPES = threading.local()
+#: Within :func:`pipes_read_again`: the bytes of each pipe read there, by path (None outside). A context variable:
+#: each thread has its own (a thread starts without one), and so does each asyncio task.
+_PIPES: contextvars.ContextVar[dict[str, bytes] | None] = contextvars.ContextVar("walkmon_pipes", default=None)
 
 
 @contextlib.contextmanager
 def pipes_read_again() -> Iterator[None]:
     """Within it (in this thread), a pipe :func:`read_bounded` reads again gives the bytes it gave the first time;
     outside, every read reads (a named pipe fed anew is read anew). Nested: the outer one's pipes stay known."""
-    outer = getattr(_PIPES, "cache", None)
-    _PIPES.cache = {} if outer is None else outer
+    outer = _PIPES.get()
+    token = _PIPES.set({} if outer is None else outer)
     try:
         yield
     finally:
-        _PIPES.cache = outer
+        _PIPES.reset(token)
 
 
 def _read_bounded(p: Path, max_bytes: int, what: str) -> bytes:

@@ -210,22 +210,24 @@ def test_a_threads_pipes_are_its_own() -> None:
     seen = []
 
     def other() -> None:
+        seen.append(_PIPES.get())  # a thread starts without the cache of the one that started it
         with pipes_read_again():
-            seen.append(_PIPES.cache)
-        seen.append(getattr(_PIPES, "cache", None))
+            seen.append(_PIPES.get())
+        seen.append(_PIPES.get())
 
     with pipes_read_again():
-        mine = _PIPES.cache
+        mine = _PIPES.get()
+        assert mine is not None
         mine["x"] = b"1"
         th = threading.Thread(target=other)
         th.start()
         th.join()
-        assert _PIPES.cache is mine and mine == {"x": b"1"}
+        assert _PIPES.get() is mine and mine == {"x": b"1"}
         with pipes_read_again():  # nested: the outer one's pipes stay known
-            assert _PIPES.cache is mine
-        assert _PIPES.cache is mine
-    assert seen[0] is not mine and seen[1] is None
-    assert getattr(_PIPES, "cache", None) is None
+            assert _PIPES.get() is mine
+        assert _PIPES.get() is mine
+    assert seen[0] is None and seen[1] == {} and seen[1] is not mine and seen[2] is None
+    assert _PIPES.get() is None
 
 
 def test_an_empty_output_or_data_folder_is_refused(walk: Path, tmp_path: Path, cli, monkeypatch) -> None:
