@@ -297,3 +297,25 @@ def test_a_saved_imu_analysis_reports_as_analyzed_and_counts_in_the_history(
     recorded_min, walking_min = float(row[2]), float(row[3])
     assert recorded_min * 60 == pytest.approx(truth["t"][-1], abs=1.5)
     assert walking_min * 60 == pytest.approx(true_walking_s, abs=4.0)
+
+
+def test_a_saved_analysis_hops_carry_their_posture_segments_cadence(tmp_path: Path,
+                                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A normal then a bent stretch in one bout: each walking second's hop carries its own segment's cadence,
+    which the simulator's truth sets apart (review: the bout's one cadence, 109.8, on every second of stretches
+    walked at 113.4 and 105.8)."""
+    import walkmon
+
+    sim = tmp_path / "sim"
+    assert main(["simulate", "--no-video", "--walk", "stand:3,normal:12,bend:12,stand:3", "--seed", "1",
+                 "--out", str(sim)]) == 0
+    capsys.readouterr()
+    result = walkmon.analyze(imu=sim / "imu.csv")
+    sid = result.save(tmp_path / "db")
+    segs = [s for s in result.indicators["segments"] if s["activity"] == "walking"]
+    assert len(segs) == 2 and abs(segs[0]["cadence_spm"] - segs[1]["cadence_spm"]) > 3.0  # bend walks slower
+    hops = walkmon.load_session(sid, tmp_path / "db").hops
+    for seg in segs:
+        inside = (hops["walking"] == 1) & (hops["t_s"] > seg["start_s"] + 1) & (hops["t_s"] < seg["end_s"] - 1)
+        assert inside.sum() >= 5
+        assert np.allclose(hops["cadence_spm"][inside], seg["cadence_spm"])
