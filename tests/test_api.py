@@ -173,3 +173,25 @@ def test_an_accelerometer_session_saved_without_its_samples_is_refused(tmp_path:
     sid = record_offline_session(tmp_path / "db", t, angles, source="IMU only: acc.csv", imu="acc.csv")
     with pytest.raises(InvalidInputError, match="saved without its samples"):
         walkmon.load_session(sid, tmp_path / "db").analyze()
+
+
+def test_an_imu_file_in_another_sensors_axes_is_said(clip, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:  # noqa: ANN001
+    """The simulated walk's IMU with its axes turned so that x points up (as Mobilise-D's lower-back sensor):
+    steps, bouts and cadence do not depend on the axes, but pitch and roll do (review: a real course read standing
+    seconds at 87-159 deg of pitch, silently). A warning and imu.json's axes_warning say so; in camera axes,
+    neither."""
+    import logging
+
+    lines = (clip.video_path.parent / "imu.csv").read_text().splitlines()
+    turned = ["t,gx,gy,gz,ax,ay,az"]
+    for line in lines[1:]:
+        t, gx, gy, gz, ax, ay, az = line.split(",")
+        turned.append(",".join([t, f"{-float(gy)}", gx, gz, f"{-float(ay)}", ax, az]))  # y up -> x up
+    (tmp_path / "x_up.csv").write_text("\n".join(turned) + "\n")
+    with caplog.at_level(logging.WARNING, logger="walkmon.api"):
+        plain = walkmon.analyze(imu=clip.video_path.parent / "imu.csv")
+        assert not caplog.records and "axes_warning" not in (plain.imu_info or {})
+        x_up = walkmon.analyze(imu=tmp_path / "x_up.csv")
+    assert any("90 deg from the camera axes' up" in r.getMessage() for r in caplog.records)
+    assert "another sensor's own axes" in x_up.imu_info["axes_warning"]
+    assert [b["n_steps"] for b in x_up.indicators["bouts"]] == [b["n_steps"] for b in plain.indicators["bouts"]]

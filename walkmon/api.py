@@ -567,12 +567,41 @@ def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, 
     cols: dict[str, Any] = {"t": t, "pitch": rel[:, 0], "yaw": np.full(t.size, np.nan), "roll": rel[:, 1],
                             "pitch_abs": absolute[:, 0], "roll_abs": absolute[:, 1],
                             "_imu_input": ImuInput(t_raw - t_raw[0], acc, None)}
-    info = {"mode": "accelerometer_only", "imu": str(imu_path), "samples": len(t_raw), "rate_hz": round(rate, 3),
+    axes = _axes_note(acc, str(imu_path))
+    info = {"mode": "accelerometer_only", "imu": str(imu_path), **({"axes_warning": axes} if axes else {}),
+            "samples": len(t_raw), "rate_hz": round(rate, 3),
             **_gap_doc(t_raw), "rows": len(t), "axes": "accelerometer's own axes (no camera extrinsics)",
             "note": "no gyroscope: pitch/roll from gravity (low-passed accelerometer), no yaw, no turns"}
     if units:
         info["units"] = units
     return cols, info
+
+
+#: Gravity further than this (deg) from the camera's up (-y: the specific force of an upright camera) on median
+#: is another sensor's own axes (a chest camera pitched 25-45 deg down, as the simulator's steep mounts, stays
+#: well inside; Mobilise-D's lower-back IMU reads 88, a phone in a pouch 172).
+_AXES_OFF_DEG = 60.0
+
+
+def _axes_note(acc: NDArray[np.float64], name: str) -> str | None:
+    """A warning (logged, and for imu.json) when the recording's gravity lies far from the camera axes' up: the
+    file is in another sensor's own axes (Mobilise-D's lower-back IMU: x up), where the posture angles (pitch,
+    roll; Euler angles near their 90 deg singularity) mean nothing, while the steps, bouts, cadence and turns do
+    not depend on the axes (user review: HA/002's course read standing seconds at 87-159 deg of pitch, silently)."""
+    a = np.asarray(acc, dtype=float)
+    norm = np.linalg.norm(a, axis=1)
+    ok = norm > 0
+    if not ok.any():
+        return None
+    up = np.median(a[ok] / norm[ok, None], axis=0)
+    off = float(np.degrees(np.arccos(np.clip(-up[1] / max(float(np.linalg.norm(up)), 1e-9), -1.0, 1.0))))
+    if off <= _AXES_OFF_DEG:
+        return None
+    msg = (f"gravity lies {off:.0f} deg from the camera axes' up (-y) on median: the file is in another sensor's own "
+           "axes, so its pitch and roll (and posture labels) are not the trunk's; steps, bouts, cadence and turns "
+           "are; turn the samples into camera axes (x right, y down, z forward) for posture")
+    _log.warning("%s: %s", name, msg)
+    return msg
 
 
 def _gap_doc(t_s: NDArray[np.float64], listed: int = 20) -> dict[str, Any]:
@@ -599,7 +628,8 @@ def _imu_only_columns(
     from walkmon.gait.session import ImuInput  # noqa: PLC0415
 
     cols["_imu_input"] = ImuInput(imu.t_s - imu.t_s[0], imu.accelerometer_m_s2, imu.gyroscope_rad_s)
-    info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter,
+    axes = _axes_note(imu.accelerometer_m_s2, str(imu_path)) if "telemetry" not in source else None
+    info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter, **({"axes_warning": axes} if axes else {}),
             "accelerometer_calibration": None if calib is None else str(calib), "samples": len(imu.t_s),
             "rate_hz": round(imu.rate_hz, 3), **_gap_doc(imu.t_s), "rows": len(cols["t"]),
             "axes": "camera axes (telemetry mapping)" if "telemetry" in source else "IMU's own axes (no camera extrinsics)",
