@@ -561,3 +561,27 @@ def test_sitting_or_picking_up_between_walks_is_a_posture_not_the_videos_error(
     labelled = [s for s in doc["segments"] if s["label"] != "unclassified"]
     assert {s["label"] for s in labelled} == {walk}
     assert not any("a pause at" in r for s in doc["segments"] for r in s["reasons"])
+
+
+def test_the_standing_that_opens_and_closes_a_recording_is_reported(tmp_path) -> None:  # noqa: ANN001
+    """A simulated walk with 3 s of standing before and after: indicators.json's standing_start_s and
+    standing_end_s (null in the session analysis before; the report's 'standing at start' a dash) span the
+    truth's standing within a step; a walk that starts mid-walk has no standing at its start."""
+    import walkmon
+    from walkmon.commands.cli import main
+    from walkmon.tables import read_table
+
+    for script, opens in (("stand:3,normal:10,stand:3", True), ("normal:6,pause:1,normal:4,stand:3", False)):
+        sim = tmp_path / script.replace(":", "_").replace(",", "-")
+        assert main(["simulate", "--no-video", "--walk", script, "--seed", "2", "--out", str(sim)]) == 0
+        truth = read_table(sim / "truth_timeline.csv", ("t",))["t"]
+        activity = [ln.split(",")[1] for ln in (sim / "truth_timeline.csv").read_text().splitlines()[1:]]
+        walking = truth[[a == "walking" for a in activity]]
+        ind = walkmon.analyze(imu=sim / "imu.csv").indicators
+        if opens:
+            assert ind["standing_start_s"][0] == pytest.approx(0.0, abs=0.05)
+            assert ind["standing_start_s"][1] == pytest.approx(walking[0], abs=0.6)
+        else:
+            assert ind["standing_start_s"] is None
+        assert ind["standing_end_s"][0] == pytest.approx(walking[-1], abs=0.6)
+        assert ind["standing_end_s"][1] == pytest.approx(truth[-1], abs=0.1)

@@ -987,13 +987,39 @@ def analyze_session(
     first, last = (seg.bouts[0].start_s, seg.bouts[-1].end_s) if seg.bouts else (float("nan"), float("nan"))
     if no_yaw:
         axes["yaw"] = AxisIndicators(*(float("nan"),) * 4, n_cycles=0)
+    stand_start, stand_end = _standing_at_ends(seg)
     ind = Indicators(
         cadence_spm=float(cadence), duration_s=duration, walking_s=walking_s, axes=axes, asymmetry=asym,
         classification=cls, status=status, mode=settings.mode, walking_interval_s=(first, last),
+        standing_start_s=stand_start, standing_end_s=stand_end,
         reference_deg={"pitch": float(ref_out[0]), "yaw": 0.0, "roll": float(ref_out[1])}, drift_removed_deg={},
         session=session,
     )
     return SessionAnalysis(ind, seg, ref_camera, ref_source, tuple(seg_docs), rows)
+
+
+def _standing_at_ends(seg: Segmentation) -> tuple[tuple[float, float] | None, tuple[float, float] | None]:
+    """indicators.json ``standing_start_s`` / ``standing_end_s``: the timeline's standing that opens the recording
+    (before its first bout) and that closes it (after its last), as the paper's processing reports them; None
+    where the recording starts or ends otherwise (review: always null, the report's 'standing at start' a dash
+    beside a reference taken from a 5 s standing phase)."""
+    grid = np.asarray(seg.timeline_t_s, dtype=float)
+    act = np.asarray(seg.activity, dtype=object)
+    if grid.size < 2:
+        return None, None
+    standing = act == "standing"
+    first_walk = seg.bouts[0].start_s if seg.bouts else math.inf
+    last_walk = seg.bouts[-1].end_s if seg.bouts else -math.inf
+    out: list[tuple[float, float] | None] = [None, None]
+    if standing[0]:
+        i = int(np.argmin(standing)) if not standing.all() else standing.size
+        if grid[i - 1] <= first_walk:
+            out[0] = (float(grid[0]), float(grid[i - 1]))
+    if standing[-1]:
+        j = standing.size - int(np.argmin(standing[::-1])) if not standing.all() else 0
+        if grid[j] >= last_walk:
+            out[1] = (float(grid[j]), float(grid[-1]))
+    return out[0], out[1]
 
 
 def _vertical_doc(vert: Vertical | None, ref: NDArray, has_abs: bool) -> dict[str, Any]:
