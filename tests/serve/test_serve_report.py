@@ -37,7 +37,8 @@ def test_report_of_a_logged_session_starts_in_plain_words(tmp_path: Path, make_h
     assert r.returncode == 0, r.stderr
     html = (out / "report.html").read_text()
     summary = re.search(r'<p class="summary">(.*?)</p>', html).group(1)
-    assert summary == "0.3 min walked, 50 % upright, 1 lean-forward alert, cadence 104 steps/min."
+    assert summary == ("0.3 min walked, 50 % upright (within the alert thresholds), 1 lean-forward alert, cadence "
+                       "104 steps/min.")
     assert "Walking report: Ann" in html
     first, appendix = html.split('<section class="appendix">')
     assert "<svg" in first and "leaning forward 16 deg: straighten up" in first

@@ -30,12 +30,15 @@ def _minutes(seconds: float) -> str:
 
 
 def session_summary(s: SessionStats, baseline: SessionStats | DayStats | None = None, baseline_what: str = "") -> str:
-    """'12 min walked, 78 % upright, 3 lean-forward alerts, cadence 104 steps/min. Compared with ...'."""
+    """'12 min walked, 78 % upright (within the alert thresholds), 3 lean-forward alerts, cadence 104 steps/min.
+    Compared with ...'."""
     if s.walking_s <= 0:
         return (f"No walking detected in {_minutes(s.recorded_s)} recorded; {alerts_phrase(s.alerts)}.")
     parts = [f"{_minutes(s.walking_s)} walked"]
     if math.isfinite(s.upright_pct):
-        parts.append(f"{s.upright_pct:.0f} % upright")
+        # the walking time whose posture stays within the alert thresholds: not the share labelled normal, which
+        # the report's classification gives beside it (review: '56 % upright' beside 'normal over 51 %', unsaid)
+        parts.append(f"{s.upright_pct:.0f} % upright (within the alert thresholds)")
     parts.append(alerts_phrase(s.alerts))
     if math.isfinite(s.cadence_spm):
         parts.append(f"cadence {s.cadence_spm:.0f} steps/min")
