@@ -51,14 +51,38 @@ _T = TypeVar("_T", bound=StopTarget)
 _received: int | None = None
 
 
-def _on_stop(signum: int, _frame: object) -> None:
+#: While a signal finds the interpreter in its import machinery it is delivered again this much later (s).
+_IMPORT_RETRY_S = 0.01
+
+
+def _on_stop(signum: int, frame: object) -> None:
     global _received  # noqa: PLW0603 - one process-wide signal disposition
     target = _target
     if target is None:
+        if _in_import_machinery(frame):
+            # raised here, Interrupted could land in a callback of the import system whose exceptions Python prints
+            # and drops ('Exception ignored in: <function _get_module_lock.<locals>.cb>' and a traceback on stderr;
+            # CI, SIGTERM 1.61 s into 'walkmon live'): the signal is sent again once the import has moved on
+            _redeliver(signum)
+            return
         if _received is None:
             _received = signum
         raise Interrupted(signum)
     target.stop(f"signal {signal_name(signum)}")
+
+
+def _in_import_machinery(frame: object) -> bool:
+    code = getattr(frame, "f_code", None)
+    return str(getattr(code, "co_filename", "")).startswith("<frozen importlib")
+
+
+def _redeliver(signum: int) -> None:
+    import os  # noqa: PLC0415
+    import threading  # noqa: PLC0415
+
+    timer = threading.Timer(_IMPORT_RETRY_S, os.kill, (os.getpid(), signum))
+    timer.daemon = True
+    timer.start()
 
 
 def received() -> int | None:
