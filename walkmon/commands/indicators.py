@@ -111,7 +111,9 @@ def run(args: argparse.Namespace) -> int:
         msg = (f"{path}: no yaw on any row: the angles of an accelerometer alone (gravity's pitch and roll, "
                "low-passed), which hold no steps; analyse its t,ax,ay,az file with 'walkmon analyze --imu FILE'")
         raise InvalidInputError(msg)
-    table = read_table(path, ANGLE_COLUMNS)  # a yaw missing, or missing on some rows only: said as before
+    if yaw is None or not np.isfinite(yaw).all():
+        # a yaw missing, not a number, or missing on some rows only: read strictly, to be said as before
+        table = read_table(path, ANGLE_COLUMNS)
     t = table["t"]
     angles = np.column_stack([table[c] for c in ANGLE_COLUMNS[1:]])
     # the gravity-referenced angles of 'walkmon analyze --imu' (NaN where not fused), shown as analyze shows them
