@@ -75,3 +75,30 @@ def test_indicators_writes_timeline_and_segments_and_paper_mode_keeps_the_whole_
     paper = json.loads((tmp_path / "p" / "indicators.json").read_text())
     assert paper["mode"] == "paper" and "segments" not in paper
     assert not (tmp_path / "p" / "timeline.csv").exists()
+
+
+def test_accelerometer_only_inclinations_are_gravitys_against_truth(tmp_path: Path) -> None:
+    """A phone's accelerometer alone has no swing to take cycles of: each segment's pitch inclination is the mean
+    gravity pitch over it (it was null for a normal stretch and the session's was the bent stretch's alone)."""
+    sim = tmp_path / "sim"
+    assert main(["simulate", "--walk", "normal:8,bend:6", "--seed", "3", "--no-video", "--no-progress",
+                 "--out", str(sim)]) == 0
+    imu = read_table(sim / "imu.csv", ("t", "ax", "ay", "az"))
+    write_table(tmp_path / "acc.csv", {k: imu[k] for k in ("t", "ax", "ay", "az")})
+    assert main(["analyze", "--imu", str(tmp_path / "acc.csv"), "--out", str(tmp_path / "out")]) == 0
+    doc = json.loads((tmp_path / "out" / "indicators.json").read_text())
+    truth = read_table(sim / "truth.csv", ("t", "pitch"))
+    still = truth["t"] < 1.5
+    segs = doc["segments"]
+    assert len(segs) == 2
+    weights, incl = [], []
+    for s in segs:
+        m = (truth["t"] >= s["start_s"]) & (truth["t"] <= s["end_s"])
+        true = float(np.mean(truth["pitch"][m]) - np.median(truth["pitch"][still]))
+        got = s["axes"]["pitch"]["inclination_mean"]
+        assert got == pytest.approx(true, abs=1.5), (s["start_s"], got, true)
+        assert s["axes"]["pitch"]["swing_mean"] is None  # not measured from gravity, not made up
+        assert s["label"] == "unclassified" and "nan" not in s["reasons"][0]
+        weights.append(s["end_s"] - s["start_s"])
+        incl.append(got)
+    assert doc["axes"]["pitch"]["inclination_mean"] == pytest.approx(np.average(incl, weights=weights), abs=0.05)

@@ -847,6 +847,9 @@ def span_indicators(
     if kind == "acc":
         # An accelerometer alone sees no turns (their centripetal acceleration tilts the low-passed "gravity") and
         # no swing (gravity angles are low-passed): its inclinations are indicative only, not a posture label.
+        # They are the mean gravity angles over the span, not the cycles' mid-points: low-passed gravity has no
+        # step cycles (a normal stretch had a null pitch, and the session's pitch was the bent stretch's alone).
+        ind = _gravity_inclinations(ind, a[m], ref)
         ind = ind.with_classification(Classification("unclassified", (
             "accelerometer only: no gyroscope to exclude turns or measure swings, so no posture label "
             f"(pitch {ind.axes['pitch'].inclination_mean:.1f} deg, roll {ind.axes['roll'].inclination_mean:.1f} deg "
@@ -862,6 +865,22 @@ def span_indicators(
         "status": ind.status.value,
     }
     return ind, doc
+
+
+def _gravity_inclinations(ind: Indicators, a: NDArray, ref: NDArray) -> Indicators:
+    """``ind`` with pitch and roll inclinations the mean of the span's angles ``a`` (N,3) about ``ref`` (their
+    spread as ``inclination_std``), swing and cycles not measured, and yaw none: an accelerometer's indicators."""
+    nan = float("nan")
+    axes = dict(ind.axes)
+    for k, ax in enumerate(AXES):
+        x = a[:, k] - float(ref[k])
+        x = x[np.isfinite(x)]
+        if ax == "yaw" or not x.size:
+            axes[ax] = AxisIndicators(nan, nan, nan, nan, n_cycles=0)
+        else:
+            axes[ax] = AxisIndicators(nan, nan, nan, float(np.mean(x)), n_cycles=0, inclination_std=float(np.std(x)))
+    ok = bool(np.isfinite(axes["pitch"].inclination_mean))
+    return replace(ind, axes=axes, status=IndicatorStatus.OK if ok else ind.status)
 
 
 def _weighted_axes(items: list[tuple[float, Indicators]]) -> dict[str, AxisIndicators]:
