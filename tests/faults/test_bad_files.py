@@ -482,3 +482,52 @@ def test_repeated_rows_and_a_corrupt_row_are_no_clock_reset(tmp_path: Path, cli)
     imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(rows))
     res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
     assert res.rc == 0, res.err
+
+
+def _imu_part(walk: Path, out: Path, keep) -> Path:  # noqa: ANN001
+    from walkmon.tables import read_table, write_table
+
+    cols = ("t", "gx", "gy", "gz", "ax", "ay", "az")
+    imu = read_table(walk / "imu.csv", cols)
+    m = keep(imu["t"])
+    write_table(out, {k: imu[k][m] for k in cols})
+    return out
+
+
+def test_imu_starting_after_the_video_leaves_no_zero_angles_or_made_up_activity(walk: Path, tmp_path: Path,
+                                                                                 cli) -> None:
+    """An IMU switched on 2.9 s into a 6 s video: the frames before it are the vision's (they were all the first
+    fused estimate: zero angles over 0.9 s of walking) and their seconds' activity is unknown, not the nearest
+    second's."""
+    from walkmon.consts import angles_deg_from_rotation, rotation_from_angles_deg
+    from walkmon.tables import read_table
+
+    imu = _imu_part(walk, tmp_path / "late.csv", lambda t: t >= 2.9)
+    out = tmp_path / "out"
+    res = cli("analyze", walk / "video.mp4", "--calib", walk / "camera.yaml", "--imu", imu, "--out", out,
+              "--no-progress")
+    assert res.rc == 0, res.err
+    got = read_table(out / "angles.csv", ("t", "pitch", "yaw", "roll"))
+    truth = read_table(walk / "truth.csv", ("t", "pitch", "yaw", "roll"))
+    Rt = rotation_from_angles_deg(truth["pitch"], truth["yaw"], truth["roll"])
+    true = angles_deg_from_rotation(Rt[0].T @ Rt)
+    before = (got["t"] >= 2.0) & (got["t"] < 2.9)
+    est = np.column_stack([got[k] for k in ("pitch", "yaw", "roll")])
+    assert np.abs(true[before]).max() > 0.5  # the wearer walks there: zero angles would fail below
+    assert np.abs(est[before] - true[before]).max() < 0.3
+    assert np.abs(est - true).max() < 0.6  # and the frames after, relative to the same first frame
+    rows = [r.split(",") for r in (out / "timeline.csv").read_text().splitlines()[1:]]
+    assert [r[1] for r in rows[:3]] == ["unknown"] * 3
+    doc = json.loads((out / "indicators.json").read_text())
+    assert sum(doc["activity_s"].values()) == pytest.approx(6.0, abs=0.2)
+    assert any("seconds outside it are unknown" in n for n in doc["input"]["notes"])
+
+
+def test_imu_stopping_before_the_video_ends_leaves_its_last_seconds_unknown(walk: Path, tmp_path: Path, cli) -> None:
+    imu = _imu_part(walk, tmp_path / "short.csv", lambda t: t <= 4.4)
+    out = tmp_path / "out"
+    res = cli("analyze", walk / "video.mp4", "--calib", walk / "camera.yaml", "--imu", imu, "--out", out,
+              "--no-progress")
+    assert res.rc == 0, res.err
+    rows = [r.split(",") for r in (out / "timeline.csv").read_text().splitlines()[1:]]
+    assert rows[-1][1] == "unknown"  # 5 s: the IMU had stopped (the second was its last one's, standing)

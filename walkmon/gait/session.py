@@ -981,6 +981,10 @@ def analyze_session(
     asym = _weighted_asym(weighted)
     activity_s = {k: float(np.sum(activity == k)) * activity_settings.hop_s
                   for k in ("standing", "walking", "turning", "unknown")}
+    if t.size and len(seg.timeline_t_s):  # the recording's time outside the activity's (an IMU shorter than a video)
+        hop = activity_settings.hop_s
+        activity_s["unknown"] += max(0.0, float(seg.timeline_t_s[0] - hop / 2 - t[0])) + \
+            max(0.0, float(t[-1] - seg.timeline_t_s[-1] - hop / 2))
     rows = timeline_rows(t, a, seg, seg_docs, ref_zero, unc=unc)
     status = IndicatorStatus.OK if weighted and any(i.status is IndicatorStatus.OK for _, i in weighted) else (
         IndicatorStatus.NO_GAIT if seg.bouts or t.size > 16 else IndicatorStatus.TOO_SHORT)
@@ -990,7 +994,8 @@ def analyze_session(
                               "vertical": _vertical_doc(vert, ref_camera, has_abs)},
         "input": {"activity_from": {"imu": "IMU (gyroscope + accelerometer)", "acc": "accelerometer only",
                                     "angles": "camera angles"}[sig.kind],
-                  "notes": list(seg.notes) + (["no yaw: yaw indicators are null"] if no_yaw else [])},
+                  "notes": list(seg.notes) + (["no yaw: yaw indicators are null"] if no_yaw else [])
+                  + _coverage_note(t, seg, activity_settings.hop_s)},
         "activity_s": {k: _num(v, 2) for k, v in activity_s.items()},
         "summary": {
             "cadence_spm": _num(cadence, 2), "walking_s": _num(walking_s, 2), "n_bouts": len(seg.bouts),
@@ -1489,6 +1494,16 @@ def _weighted_asym(items: list[tuple[float, Indicators]]) -> dict[str, float]:
     return out
 
 
+def _coverage_note(t: NDArray, seg: Segmentation, hop: float) -> list[str]:
+    """A note when the activity's samples (an IMU's) span less of the recording than its angles (a video's)."""
+    span = seg.timeline_t_s
+    if not t.size or not len(span) or (span[0] - hop <= t[0] and span[-1] + hop >= t[-1]):
+        return []
+    return [f"the activity is known over {max(span[0] - hop / 2, t[0]):.1f}-{min(span[-1] + hop / 2, t[-1]):.1f} s "
+            f"of the recording's "
+            f"{t[0]:.1f}-{t[-1]:.1f} s (the IMU's samples): the seconds outside it are unknown"]
+
+
 def timeline_rows(
     t: NDArray, a: NDArray, seg: Segmentation, seg_docs: list[dict[str, Any]], ref: NDArray,
     abs_deg: NDArray | None = None, step_s: float = 1.0, unc: ReferenceUncertainty | None = None,
@@ -1502,11 +1517,17 @@ def timeline_rows(
     could carry the reference, looked as certain as one next to a standing phase (a walker who straightened up
     inside the only turn read 14 deg bent for 25 s of upright walking, its labels withheld but its pitch column
     not qualified). A second inside a gap of the recording (:meth:`Segmentation.in_gap`) with no sample in it
-    has no row."""
+    has no row. A second outside the span the activity was found over (a video's seconds before or after its IMU's
+    samples) is ``unknown``: the nearest second's activity was given there (a walk read as walking for 9 s after
+    its IMU stopped, a stance as walking before it started)."""
     if t.size == 0:
         return ()
     grid = np.arange(0.0, float(t[-1] - t[0]) + 1e-9, step_s) + float(t[0])
     act = seg.activity_at(grid)
+    span = seg.timeline_t_s
+    if len(span):
+        hop = float(span[1] - span[0]) if len(span) > 1 else step_s
+        act = np.where((grid < span[0] - hop) | (grid > span[-1] + hop), "unknown", act)
     no_data = seg.in_gap(grid)
     bound = np.zeros(t.size) if unc is None else np.max(np.asarray(unc.deg, dtype=float), axis=1)
     rows = []

@@ -460,8 +460,10 @@ def fuse_recording(
     Without ``visual_rotations`` this is the IMU attitude core alone (:func:`track_attitude`, default VQF)
     sampled at the given times. With them, the causal fusion (:class:`CameraImuFusion`) starts from the IMU's
     still start (mean gravity; mean gyro as bias); when the recording does not start still, a second pass
-    starts from the first pass's final bias estimate. Frames before the first IMU sample get the first
-    estimate (angles 0).
+    starts from the first pass's final bias estimate. Frames before the first IMU sample (an IMU started after
+    the camera) are carried by the vision alone, back from the first frame the IMU covers, and every frame's
+    angles are relative to the first frame (they were all given that first frame's estimate: zero angles and one
+    gravity for seconds the camera measured).
     """
     t, g, a, ft, Rv, ok = _recording_arrays(imu_t_s, gyroscope_rad_s, accelerometer_m_s2, frame_t_s, visual_rotations, visual_ok)
     if settings.accelerometer_calibration is not None:
@@ -500,6 +502,7 @@ def fuse_recording(
                  max(final_std, 1e-4), 0.5, False)
         estimates = _causal_pass(fusion, t, g, a, ft, Rv, ok, start)
         _log.info("no still start: second pass from the first pass's bias (std %.4f deg/s)", np.degrees(final_std))
+    estimates = _vision_before_imu(estimates, ft, Rv, float(t[0] + settings.time_offset_s))
     return FusionTrack(
         t_s=ft.copy(),
         angles_deg=np.array([e.angles_deg for e in estimates]),
@@ -563,6 +566,29 @@ def _causal_pass(
             i = 1
         estimates.append(fusion.push_frame(max(tk, t_video[0]), Rv[k], bool(ok[k])))
     return estimates
+
+
+def _vision_before_imu(
+    estimates: list[FusedEstimate], ft: NDArray[np.float64], Rv: NDArray[np.float64], imu_start_s: float
+) -> list[FusedEstimate]:
+    """The frames before ``imu_start_s`` (video clock) turned by the vision's own change from the first frame after
+    it (its gravity with them), then every frame re-referenced to the first: start-relative as documented."""
+    k0 = int(np.searchsorted(ft, imu_start_s - 1e-9))
+    if k0 == 0 or k0 >= len(ft):
+        return estimates
+    _log.info("fusion: %d frames before the IMU's first sample carried by the vision alone", k0)
+    first = estimates[k0]
+    out = []
+    for k in range(k0):
+        rel = Rv[k0].T @ Rv[k]  # frame k's axes in frame k0's
+        down = rel.T @ first.gravity_down
+        out.append(replace(first, t_s=float(ft[k]), rotation=first.rotation @ rel, gravity_down=down,
+                           abs_angles_deg=gravity_angles_deg_from_gravity(down), visual_used=False,
+                           visual_rejected=False))
+    out += estimates[k0:]
+    R0 = out[0].rotation
+    return [replace(e, rotation=R0.T @ e.rotation, angles_deg=angles_deg_from_rotation(R0.T @ e.rotation))
+            for e in out]
 
 
 def _mean_gravity_first_frame(
