@@ -94,3 +94,35 @@ def test_sim_source_live_session_closes_cleanly_at_its_end(tmp_path: Path, capsy
     conn = sqlite3.connect(tmp_path / "walkmon.sqlite")
     assert conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
     conn.close()
+
+
+def test_secrets_of_the_config_are_neither_stored_nor_served(tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]) -> None:
+    """User review: an apprise URL's password, a hook's token argument and the dashboard token were copied into
+    the session record and served by the loopback dashboard (which asks no token)."""
+    from walkmon.serve.store import Store
+
+    cfg = tmp_path / "walkmon.toml"
+    cfg.write_text('[sinks]\napprise_urls = ["json://alice:s3cretPASS@127.0.0.1:9/"]\n'
+                   'hook_command = ["/usr/bin/true", "--token", "HOOKSECRET42"]\n'
+                   '[serve]\ntoken = "supersecrettoken123"\n', encoding="utf-8")
+    cfg.chmod(0o600)
+    rc = main(["live", "--config", str(cfg), "--camera", "sim:normal:1?width=160&height=120&realtime=0&seed=2",
+               "--data-dir", str(tmp_path / "data"), "--status", "none"])
+    assert rc == 0, capsys.readouterr().err
+    raw = (tmp_path / "data" / "walkmon.sqlite").read_bytes()
+    conn = sqlite3.connect(tmp_path / "data" / "walkmon.sqlite")
+    stored = conn.execute("SELECT config_json FROM sessions").fetchone()[0]
+    conn.close()
+    for secret in ("s3cretPASS", "alice", "HOOKSECRET42", "supersecrettoken123"):
+        assert secret not in stored and secret.encode() not in raw
+    assert '"json://' in stored and "/usr/bin/true" in stored  # what was configured, without its keys
+    # a session recorded before (its secrets in the database) is served without them
+    conn = sqlite3.connect(tmp_path / "data" / "walkmon.sqlite")
+    with conn:
+        conn.execute("UPDATE sessions SET config_json = ?",
+                     ('{"serve": {"token": "supersecrettoken123"}, "sinks": {"apprise_urls": ["tgram://BOT99/1"]}}',))
+    conn.close()
+    _, record = Store(tmp_path / "data").session(1)
+    text = str(record["config"])
+    assert "supersecrettoken123" not in text and "BOT99" not in text

@@ -189,7 +189,7 @@ def _run(args: argparse.Namespace) -> int:
     from walkmon.drivers.sources import open_camera, open_imu  # noqa: PLC0415
     from walkmon.gait.live import LiveIndicatorStage  # noqa: PLC0415
     from walkmon.live.alerts import AlertStage  # noqa: PLC0415
-    from walkmon.live.config import DEFAULT_CONFIG, config_to_dict, read_config  # noqa: PLC0415
+    from walkmon.live.config import DEFAULT_CONFIG, config_to_dict, read_config, redacted  # noqa: PLC0415
     from walkmon.live.pipeline import LivePipeline  # noqa: PLC0415
     from walkmon.live.sdnotify import Notifier  # noqa: PLC0415
     from walkmon.live.session_log import SessionLog, default_data_dir  # noqa: PLC0415
@@ -229,7 +229,7 @@ def _run(args: argparse.Namespace) -> int:
     # SIGUSR1 asks for a calibration; what arrives before the pipeline exists is held and passed on.
     with _signals.deliver_to(_signals.PendingStop()) as pending:
         log = SessionLog(data_dir, kind="live", camera=cfg.camera.url, imu=cfg.imu.url or (imu.url if imu else ""),
-                         config=config_to_dict(cfg), flush_interval_s=cfg.session.flush_interval_s,
+                         config=redacted(config_to_dict(cfg)), flush_interval_s=cfg.session.flush_interval_s,
                          log_frames=cfg.session.log_frames, person=cfg.session.person)
         sinks = None
         try:

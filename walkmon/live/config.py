@@ -13,6 +13,7 @@ import dataclasses
 import math
 import tomllib
 import typing
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -362,6 +363,31 @@ def config_to_dict(config: Config) -> dict[str, dict[str, object]]:
         out[f.name] = {
             g.name: list(v) if isinstance(v := getattr(sec, g.name), tuple) else v for g in dataclasses.fields(sec)
         }
+    return out
+
+
+#: Shown instead of a secret in a stored or served configuration.
+REDACTED = "<redacted>"
+
+
+def redacted(config: Mapping[str, object]) -> dict[str, object]:
+    """A copy of a :func:`config_to_dict` document without its secrets, as the session record keeps it and the
+    dashboard serves it (user review: an apprise URL's password and the dashboard token were stored in the
+    database and served by a loopback dashboard that needs no token): ``serve.token``, every apprise URL past its
+    scheme (services carry their keys in the host or path: ``tgram://BOT_TOKEN/CHAT``), and the hook's arguments
+    past the program (``curl -H 'Authorization: ...'``). Anything not shaped as expected is passed through."""
+    out: dict[str, object] = {k: dict(v) if isinstance(v, Mapping) else v for k, v in config.items()}
+    serve, sinks = out.get("serve"), out.get("sinks")
+    if isinstance(serve, dict) and serve.get("token"):
+        serve["token"] = REDACTED
+    if isinstance(sinks, dict):
+        urls = sinks.get("apprise_urls")
+        if isinstance(urls, (list, tuple)):
+            sinks["apprise_urls"] = [f"{str(u).split('://', 1)[0]}://{REDACTED}" if "://" in str(u) else REDACTED
+                                     for u in urls]
+        hook = sinks.get("hook_command")
+        if isinstance(hook, (list, tuple)) and len(hook) > 1:
+            sinks["hook_command"] = [hook[0], *([REDACTED] * (len(hook) - 1))]
     return out
 
 

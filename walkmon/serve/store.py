@@ -21,6 +21,7 @@ from typing import Any
 
 from walkmon.errors import InvalidInputError
 from walkmon.gait.live import unmeasured_why
+from walkmon.live.config import redacted
 from walkmon.views.history import SessionStats, local_time
 
 __all__ = ["DEFAULT_THRESHOLDS", "Store"]
@@ -204,7 +205,9 @@ class Store:
             meta = conn.execute("SELECT meta_json FROM sessions WHERE id = ?", (session_id,)).fetchone()[0]
         record = {k: v for k, v in row.items() if k != "config_json"}
         try:
-            record["config"] = json.loads(row.get("config_json") or "{}")
+            cfg = json.loads(row.get("config_json") or "{}")
+            # sessions recorded before the session log left secrets out may still hold them: never served
+            record["config"] = redacted(cfg) if isinstance(cfg, dict) else {}
             record["meta"] = json.loads(meta or "{}")
         except ValueError:
             record["config"], record["meta"] = {}, {}
