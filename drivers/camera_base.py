@@ -44,6 +44,17 @@ class CameraSource:
     #: Whether frames arrive on their own clock (cameras, realtime replays): then the newest frame wins and
     #: late frames are dropped. A source read as fast as possible (``realtime=0``) gets back-pressure instead.
     live: bool = True
+    #: Whether frame times are on the host's monotonic clock (V4L2's buffer times, the OAK's host-synchronised
+    #: ones), as a serial IMU's samples are; a replay or the simulator count from its own start (the live
+    #: pipeline then puts a host-clocked IMU on the frames' clock at the first frame).
+    host_clock: bool = True
+
+    def clock_origin_s(self) -> float | None:
+        """For a source not on the host clock that releases its frames in real time: the host monotonic time its
+        t = 0 stands for (a replay's or the simulator's start); None when it has none (read as fast as possible).
+        """
+        origin = getattr(self, "_t0_mono", None)
+        return float(origin) if getattr(self, "realtime", False) and origin is not None else None
 
     def __init__(self, url: str) -> None:
         self.url = url

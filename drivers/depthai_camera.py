@@ -55,6 +55,11 @@ def import_depthai(search_timeout_s: float = 3.0):  # noqa: ANN201 - the depthai
 class DepthaiCamera(CameraSource):
     reconnectable = True
 
+    @property
+    def host_clock(self) -> bool:  # type: ignore[override]
+        """With the on-board IMU the frames carry the device's clock (as its samples do), else the host's."""
+        return not self.imu
+
     def __init__(self, url: str, device_id: str = "", width: int = 640, height: int = 480, fps: float = 30.0,
                  timeout_s: float = 3.0, imu: bool = False, imu_rate_hz: float = 200.0) -> None:
         super().__init__(url)
@@ -153,6 +158,7 @@ class DepthaiImu:
 
     reconnectable = False
     live = True
+    host_clock = False  # the device's clock, as the camera's frames then are
 
     def __init__(self, camera: DepthaiCamera) -> None:
         self.camera = camera

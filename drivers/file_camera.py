@@ -32,6 +32,7 @@ class FileCamera(CameraSource):
         self.path = Path(path)
         self.realtime = realtime
         self.live = realtime
+        self.host_clock = False  # the video's own times
         self.loop = loop
         self._fps_override = fps
         self._decode_threads = decode_threads

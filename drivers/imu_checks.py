@@ -14,6 +14,10 @@ A sample is implausible when (limits in :class:`ImuLimits`):
 * ``no_gravity``: the specific force is under 0.1 g: a worn sensor always feels gravity plus the walk's
   accelerations (a walk's lowest is about 0.5 g); an all-zero sensor (dead, unpowered, not initialised) fails;
 * ``time_back``: the time stamp is earlier than the previous accepted sample's (a corrupted or reordered line);
+  in a stream (:class:`ImuPlausibility`), :data:`CLOCK_RESTART_SAMPLES` samples in a row that go back but move
+  forward among themselves are a clock that restarted (a device rebooted, a microsecond counter wrapped, a
+  corrupted time far ahead that every later sample is behind): the stream follows the new clock from there
+  (``clock_restarts``), as it would otherwise have refused every later sample of the session (user review);
 * ``time_jump`` (a recording, :func:`plausible_rows`): one row's time stamp far ahead of the rows around it, the
   next row continuing from the one before (a corrupted time in one line); without this rule every row after it
   read as going back, and one bad line refused a whole file as a clock reset (user review).
@@ -45,6 +49,9 @@ class ImuLimits:
 
 DEFAULT_IMU_LIMITS = ImuLimits()
 
+#: Consecutive samples behind the stream's time but in order among themselves that make a clock restart.
+CLOCK_RESTART_SAMPLES = 5
+
 
 def implausible_reason(t_s: float, gyroscope_rad_s: Sequence[float] | None, accelerometer_m_s2: Sequence[float],
                        previous_t_s: float = -math.inf, limits: ImuLimits = DEFAULT_IMU_LIMITS) -> str | None:
@@ -71,14 +78,27 @@ class ImuPlausibility:
         self.limits = limits
         self.rejected: Counter[str] = Counter()
         self.accepted = 0
+        #: times the stream's clock restarted (see ``time_back`` in the module docstring)
+        self.clock_restarts = 0
         self._last_t = -math.inf
+        self._behind: list[float] = []  # the current run of samples behind the stream's time, in order
 
     def check(self, t_s: float, gyroscope_rad_s: Sequence[float] | None, accelerometer_m_s2: Sequence[float]) -> bool:
         """True if the sample is plausible (and becomes the time reference), False if it was counted and skipped."""
         why = implausible_reason(t_s, gyroscope_rad_s, accelerometer_m_s2, self._last_t, self.limits)
+        if why == "time_back":
+            if self._behind and not t_s > self._behind[-1]:
+                self._behind = []
+            self._behind.append(t_s)
+            if len(self._behind) >= CLOCK_RESTART_SAMPLES:
+                self.clock_restarts += 1
+                why = None
+        elif why is None:
+            self._behind = []
         if why is not None:
             self.rejected[why] += 1
             return False
+        self._behind = []
         self._last_t = t_s
         self.accepted += 1
         return True
@@ -91,7 +111,8 @@ class ImuPlausibility:
         """``"3 of 120 IMU samples rejected (2 no_gravity, 1 time_back)"``."""
         n = self.n_rejected
         why = ", ".join(f"{k} {v}" for k, v in sorted(self.rejected.items()))
-        return f"{n} of {n + self.accepted} IMU samples rejected as implausible" + (f" ({why})" if n else "")
+        restarts = f"; the clock restarted {self.clock_restarts} time(s)" if self.clock_restarts else ""
+        return f"{n} of {n + self.accepted} IMU samples rejected as implausible" + (f" ({why})" if n else "") + restarts
 
 
 def plausible_rows(t_s: NDArray[np.float64], gyroscope_rad_s: NDArray[np.float64] | None,

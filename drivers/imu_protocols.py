@@ -39,6 +39,7 @@ from typing import Protocol
 
 from walkmon.consts import GRAVITY_MS2
 from walkmon.drivers.imu_checks import ImuPlausibility
+from walkmon.drivers.imu_clock import DeviceClock
 from walkmon.drivers.imu_types import ImuSample, ParserStats
 from walkmon.errors import ConfigError
 
@@ -275,6 +276,9 @@ class CsvLineParser:
         self._discarding = False
         self._stats = ParserStats()
         self._plausible = ImuPlausibility()
+        self._clock = DeviceClock()
+        self._device_timed: list[bool] = []  # per sample of the current read: timed by the device
+        self._arrival = 0.0
 
     @property
     def stats(self) -> ParserStats:
@@ -282,6 +286,7 @@ class CsvLineParser:
 
     def feed(self, data: bytes, t_s: float) -> list[ImuSample]:
         self._buffer.extend(data)
+        self._arrival = t_s
         out: list[ImuSample] = []
         while True:
             k = self._buffer.find(b"\n")
@@ -300,7 +305,7 @@ class CsvLineParser:
             sample = self._parse_line(line, t_s)
             if sample is not None:
                 out.append(sample)
-        return out
+        return self._on_host_clock(out)
 
     def _count(self, **increments: int) -> None:
         self._stats = replace(self._stats, **{k: getattr(self._stats, k) + v for k, v in increments.items()})
@@ -324,17 +329,36 @@ class CsvLineParser:
         if len(values) not in (6, 7) or not all(math.isfinite(v) for v in values):
             self._count(skipped_bytes=len(line) + 1, bad_checksums=1)
             return None
-        if len(values) == 7:
+        device = len(values) == 7
+        if device:
             t_s = values[0] * self._time_scale
             values = values[1:]
         g, a = self._gyro_scale, self._accel_scale
         gyro = (values[0] * g, values[1] * g, values[2] * g)
         accel = (values[3] * a, values[4] * a, values[5] * a)
-        if not self._plausible.check(t_s, gyro, accel):  # no checksum: a corrupted line is caught here
+        # no checksum: a corrupted line is caught here, its time judged on the device's clock (a run of samples
+        # behind it is a restarted clock: walkmon.drivers.imu_checks)
+        if not self._plausible.check(t_s, gyro, accel):
             self._count(good_packets=1, implausible_samples=1)
             return None
         self._count(good_packets=1, samples=1)
+        self._device_timed.append(device)
         return ImuSample(t_s, gyro, accel)
+
+    def _on_host_clock(self, samples: list[ImuSample]) -> list[ImuSample]:
+        """The read's device-timed samples (a ``t`` column) mapped onto the host clock the camera's frames are on
+        (:class:`~walkmon.drivers.imu_clock.DeviceClock`), all of the read at once."""
+        idx = [i for i, dev in enumerate(self._device_timed) if dev]
+        self._device_timed = []
+        if not idx:
+            return samples
+        restarts = self._clock.restarts
+        mapped = self._clock.host_times([samples[i].t_s for i in idx], self._arrival)
+        self._count(clock_restarts=self._clock.restarts - restarts)
+        out = list(samples)
+        for i, t in zip(idx, mapped, strict=True):
+            out[i] = replace(samples[i], t_s=t)
+        return out
 
 
 def parser_for_protocol(protocol: str, csv_units: CsvUnits = CsvUnits()) -> ImuParser:

@@ -20,8 +20,9 @@ class ImuSample:
     """One IMU reading in the sensor's own axes.
 
     ``t_s``
-        Timestamp in seconds: the device clock where the protocol has one (CSV ``t`` column), otherwise the
-        host clock value the caller passed to ``feed`` with the bytes that completed the sample.
+        Timestamp in seconds on the host clock the caller passes to ``feed``: a device clock (CSV ``t`` column)
+        mapped onto it (:class:`walkmon.drivers.imu_clock.DeviceClock`), otherwise the value passed with the
+        bytes that completed the sample (the serial reader spreads a chunk's samples over their interval).
     ``gyroscope_rad_s``
         Body angular rate (x, y, z), rad/s; ``None`` for protocols without a gyroscope (BNO08x UART-RVC).
     ``accelerometer_m_s2``
@@ -59,6 +60,9 @@ class ParserStats:
     #: Well-formed samples that cannot be real (non-finite, beyond a MEMS sensor's range, no gravity, time going
     #: back: :mod:`walkmon.drivers.imu_checks`), skipped; CSV lines have no checksum to catch their corruption.
     implausible_samples: int = 0
+    #: Times a device clock (a CSV ``t`` column) restarted or jumped, each starting a new mapping onto the host
+    #: clock (:class:`walkmon.drivers.imu_clock.DeviceClock`).
+    clock_restarts: int = 0
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,7 +9,8 @@ Options: ``baud`` (default 115200), ``protocol`` (``witmotion`` | ``bno08x-rvc``
 ``witmotion``), and for CSV ``gyro_unit`` (``rad/s`` | ``deg/s``), ``accel_unit`` (``m/s2`` | ``g`` | ``mg``),
 ``time_unit`` (``s`` | ``ms`` | ``us``). Unknown options raise :class:`~walkmon.errors.ConfigError`.
 
-Samples are timestamped with the host's monotonic clock when the protocol has no device clock. They are never
+Samples are timestamped on the host's monotonic clock, the live camera's: a device clock (CSV ``t``) is mapped
+onto it, and the samples of one read are spread over their interval (:mod:`walkmon.drivers.imu_clock`). They are never
 dropped silently: when the consumer falls behind and the queue is full, the oldest samples are dropped, counted,
 and the next :class:`ImuBatch` carries ``overflow=True`` and the count. A device that goes away (unplugged,
 closed) makes :meth:`SerialImu.read` raise :class:`~walkmon.errors.SourceDisconnected` once the samples read
@@ -28,6 +29,7 @@ from types import TracebackType
 from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
+from walkmon.drivers.imu_clock import ChunkStamps
 from walkmon.drivers.imu_protocols import (
     PROTOCOLS,
     CsvUnits,
@@ -113,6 +115,7 @@ class SerialImu:
     def __init__(self, settings: SerialImuSettings, *, parser: ImuParser | None = None) -> None:
         self.settings = settings
         self._parser = parser or parser_for_protocol(settings.protocol, settings.csv_units)
+        self._stamps = ChunkStamps()  # a chunk's samples over the time they took, not all at its arrival
         self._samples: collections.deque[ImuSample] = collections.deque()
         self._cond = threading.Condition()
         self._dropped = 0
@@ -217,7 +220,8 @@ class SerialImu:
                 data = port.read(max(1, port.in_waiting or 1))
                 if not data:
                     continue
-                samples = self._parser.feed(data, time.monotonic())
+                arrival = time.monotonic()
+                samples = self._stamps.spread(self._parser.feed(data, arrival), arrival)
                 if samples:
                     self._enqueue(samples)
         except (serial.SerialException, OSError, TypeError) as exc:

@@ -51,6 +51,7 @@ class SimCamera(CameraSource):
         self.seed, self.width, self.height, self.fps = seed, width, height, fps
         self.realtime, self.distortion = realtime, distortion
         self.live = realtime
+        self.host_clock = False  # the simulated walk's own times, from 0
         self._it: Iterator[tuple[float, object, object]] | None = None
         self._index = 0
         self._t0_mono = 0.0

@@ -186,6 +186,7 @@ class _SerialImuSource:
 
     reconnectable = False
     live = True
+    host_clock = True  # the serial reader's samples: on the host's monotonic clock (drivers/imu_clock.py)
 
     def __init__(self, url: str, imu: Any) -> None:
         self.url = url

@@ -191,7 +191,7 @@ def test_csv_units_time_column_and_host_time() -> None:
     data = b"t,gx,gy,gz,ax,ay,az\r\n1500,90,0,-180,0,-1,0\r\n0,0,45,1,0,0\n"
     samples = p.feed(data, t_s=99.0)
     assert len(samples) == 2
-    assert samples[0].t_s == pytest.approx(1.5)
+    assert samples[0].t_s == pytest.approx(99.0)  # the device's 1.5 s, arrived at 99 s of the host clock
     assert samples[0].gyroscope_rad_s == pytest.approx((math.pi / 2, 0.0, -math.pi))
     assert samples[0].accelerometer_m_s2 == pytest.approx((0.0, -G, 0.0))
     assert samples[1].t_s == 99.0  # no t column: the host time of the chunk
@@ -202,15 +202,18 @@ def test_csv_split_at_every_offset_and_bad_lines() -> None:
     data = b"0.1,1,2,3,4,5,6\nnot,a,number\n0.2,1,2,3,4,5,6\n\xff\xfe\n1,2,3\n0.3,1,2,3,4,5,nan\n0.4,1,2,3,4,5,6\n"
     for cut in range(len(data) + 1):
         p = CsvLineParser()
-        samples = feed_in_pieces(p, data, [cut])
-        assert [s.t_s for s in samples] == [0.1, 0.2, 0.4], cut
+        samples = [p.feed(data[:cut], 10.0), p.feed(data[cut:], 10.5)]
+        got = samples[0] + samples[1]
+        assert [s.gyroscope_rad_s for s in got] == [(1.0, 2.0, 3.0)] * 3, cut
+        t = [s.t_s for s in got]
+        assert all(b > a for a, b in zip(t, t[1:], strict=False)), (cut, t)  # the device's order, on the host clock
         assert p.stats.bad_checksums == 4
 
 
 def test_csv_overlong_garbage_line_is_skipped() -> None:
     p = CsvLineParser()
     samples = p.feed(b"x" * 1000, 0.0) + p.feed(b"yyy\n0.5,0,0,0,0,0,-9.81\n", 0.0)
-    assert [s.t_s for s in samples] == [0.5]
+    assert [s.accelerometer_m_s2 for s in samples] == [(0.0, 0.0, -9.81)]
     assert p.stats.skipped_bytes >= 1000
 
 

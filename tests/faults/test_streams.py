@@ -30,8 +30,9 @@ def test_csv_stream_counts_and_skips_every_implausible_or_corrupted_line() -> No
         t += 0.01
         kind = rng.integers(0, 10)
         if kind <= 6:  # a real walking sample
-            stream += _line(t, tuple(rng.normal(0, 1.0, 3)), (rng.normal(0, 2), -G + rng.normal(0, 2), rng.normal(0, 2)))
-            good.append(round(t, 6))
+            gyr = tuple(rng.normal(0, 1.0, 3))
+            stream += _line(t, gyr, (rng.normal(0, 2), -G + rng.normal(0, 2), rng.normal(0, 2)))
+            good.append(tuple(float(f"{v:.6g}") for v in gyr))
         elif kind == 7:  # well-formed but impossible: dead sensor, 1e300, nan, time back
             bad = [(t, (0, 0, 0), (0, 0, 0)), (t, (1e300, 0, 0), (0, -G, 0)), (t, (0, 0, 0), (0, -G * 40, 0)),
                    (t - 5.0, (0, 0, 0), (0, -G, 0))][rng.integers(0, 4)]
@@ -50,11 +51,13 @@ def test_csv_stream_counts_and_skips_every_implausible_or_corrupted_line() -> No
     pos = 0
     while pos < len(stream):  # random chunking, as a serial port delivers
         k = int(rng.integers(1, 300))
-        samples += parser.feed(bytes(stream[pos : pos + k]), t_s=0.0)
         pos += k
+        samples += parser.feed(bytes(stream[pos - k : pos]), t_s=1000.0 + 30.0 * pos / len(stream))  # host clock
     st = parser.stats
     assert all(implausible_reason(s.t_s, s.gyroscope_rad_s, s.accelerometer_m_s2) is None for s in samples)
-    assert set(good) <= {round(s.t_s, 6) for s in samples}  # every real sample came through
+    assert set(good) <= {s.gyroscope_rad_s for s in samples}  # every real sample came through
+    t = np.array([s.t_s for s in samples])
+    assert np.all(np.diff(t) > 0) and 1000.0 <= t[0] and t[-1] <= 1030.0  # in order, on the host clock
     assert st.samples == len(samples)
     assert st.implausible_samples >= n_implausible
     assert st.samples + st.implausible_samples + st.bad_checksums + st.ignored_packets == 3000

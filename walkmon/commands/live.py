@@ -283,4 +283,24 @@ def _run(args: argparse.Namespace) -> int:
         if rejected:
             sys.stdout.write(f"IMU: {sum(rejected.values())} samples rejected as implausible ("
                              f"{', '.join(f'{k} {v}' for k, v in sorted(rejected.items()))}): not fused\n")
+    stream_line = imu_stream_line(res.imu_stream, res.imu_samples)
+    if stream_line:
+        sys.stdout.write(stream_line + "\n")
     return 0
+
+
+def imu_stream_line(stream: dict[str, int] | None, imu_samples: int) -> str:
+    """The end-of-session line on an IMU stream's health (a parser's counts, clock restarts), or "" when all was
+    well. A stream that gave bytes but no sample is named as such: a wrong protocol or baud rate reads as that."""
+    if not stream:
+        return ""
+    bad = stream.get("bad_checksums", 0)
+    skipped = stream.get("skipped_bytes", 0)
+    restarts = stream.get("clock_restarts", 0)
+    parts = [f"{bad} bad packets or lines"] if bad else []
+    parts += [f"{skipped} bytes skipped"] if skipped else []
+    parts += [f"the device clock restarted {restarts} time(s), followed"] if restarts else []
+    if imu_samples == 0 and (bad or skipped):
+        return (f"IMU stream: no sample read ({', '.join(parts)}): check the URL's protocol and baud rate "
+                f"against the device")
+    return f"IMU stream: {', '.join(parts)}" if parts else ""

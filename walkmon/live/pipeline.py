@@ -56,7 +56,7 @@ from walkmon.live.session_log import SessionLog
 from walkmon.live.sinks import AlertSinks
 
 if TYPE_CHECKING:
-    from walkmon.drivers.imu_types import ImuSample, ImuSource
+    from walkmon.drivers.imu_types import ImuSample, ImuSource, ParserStats
 
 __all__ = [
     "DEFAULT_PIPELINE_SETTINGS",
@@ -170,6 +170,10 @@ class PipelineResult:
     imu_overflows: int
     #: the fusion's final counters; None without an IMU
     fusion: dict[str, Any] | None = None
+    #: the IMU stream's own counters where it has a parser (a serial IMU: bad checksums or lines, bytes skipped,
+    #: implausible samples, device clock restarts; :class:`~walkmon.drivers.imu_types.ParserStats`) and the
+    #: clock restarts the pipeline's plausibility check followed; None without an IMU
+    imu_stream: dict[str, int] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -341,6 +345,10 @@ class LivePipeline:
         #: plausibility of every IMU sample (finite, in a MEMS sensor's range, feels gravity, time not going
         #: back): rejected ones are counted per reason and skipped, so a dead IMU leaves camera-only frames
         self.imu_check = ImuPlausibility()
+        self._parser_stats: ParserStats | None = None
+        self._imu_shift_s = 0.0  # subtracted from the IMU's times: onto the frames' clock (_bridge_clocks)
+        self._bridged = False
+        self._warned_no_samples = False
         self._imu_rejected_since_log = 0
         self._imu_rejected_logged_mono = -math.inf
         #: frames whose fused angles were not finite: the camera's angles were used instead
@@ -439,6 +447,12 @@ class LivePipeline:
                 except SourceDisconnected as exc:
                     _log.warning("IMU: %s; continuing without IMU", exc)
                     return
+                if batch.parser_stats is not None:
+                    self._parser_stats = st = batch.parser_stats  # the parser's totals so far
+                    if not self._warned_no_samples and st.samples == 0 and st.skipped_bytes + st.bad_checksums > 1000:
+                        self._warned_no_samples = True  # bytes arrive, nothing parses: said now, not at the end
+                        _log.warning("IMU %s: %d bytes and no sample so far: check the URL's protocol and baud "
+                                     "rate against the device", getattr(self.imu, "url", ""), st.skipped_bytes)
                 if batch.overflow:
                     self._imu_overflows += 1
                     _log.warning("IMU: %d samples dropped by the driver", batch.dropped_samples)
@@ -492,20 +506,43 @@ class LivePipeline:
             else:
                 offset = self.fusion.settings.fusion.time_offset_s if self.fusion is not None else 0.0
                 samples = []
-                while self._imu_buffer and float(self._imu_buffer[0].t_s) + offset <= until_t_s:
+                while self._imu_buffer and self._imu_t(self._imu_buffer[0]) + offset <= until_t_s:
                     samples.append(self._imu_buffer.popleft())
         if samples and self.fusion is not None:
-            self._imu_newest_t = float(samples[-1].t_s) + self.fusion.settings.fusion.time_offset_s
+            self._imu_newest_t = self._imu_t(samples[-1]) + self.fusion.settings.fusion.time_offset_s
         for smp in samples:
             gyr0, acc = smp.gyroscope_rad_s, smp.accelerometer_m_s2
             gyr = gyr0 or (math.nan, math.nan, math.nan)
-            if not self.imu_check.check(float(smp.t_s), gyr0, acc):
+            t_imu = self._imu_t(smp)
+            if not self.imu_check.check(t_imu, gyr0, acc):
                 self._imu_rejected_since_log += 1  # dead or insane IMU: counted, never fed to the fusion
                 continue
-            self._writer.call(self.log.add_imu, float(smp.t_s), gyr, acc)
+            self._writer.call(self.log.add_imu, t_imu, gyr, acc)
             self._imu_count += 1
             if self.fusion is not None and until_t_s is not None:
-                self.fusion.push_imu(float(smp.t_s), gyr0, acc)
+                self.fusion.push_imu(t_imu, gyr0, acc)
+
+    def _imu_t(self, smp: ImuSample) -> float:
+        """A sample's time on the camera's clock (see :meth:`_bridge_clocks`)."""
+        return float(smp.t_s) - self._imu_shift_s
+
+    def _clocks_to_bridge(self) -> bool:
+        """An IMU on the host's clock and a camera on its own, not bridged yet (see :meth:`_bridge_clocks`)."""
+        return (not self._bridged and self.imu is not None and bool(getattr(self.imu, "host_clock", False))
+                and not getattr(self.camera, "host_clock", True))
+
+    def _bridge_clocks(self, frame_t_s: float, grabbed_s: float) -> None:
+        """At the first frame: an IMU on the host's monotonic clock (a serial IMU) with a camera on its own (the
+        simulator, a replay) is put on the frames' clock, the frame's grab time its time (its samples matched
+        no frame: 'before any IMU sample' for a whole session; user review). Same clocks: nothing to do."""
+        if not self._clocks_to_bridge():
+            return
+        origin = getattr(self.camera, "clock_origin_s", lambda: None)()
+        # the replay's own start when it has one (its first frame may come late: the simulator's first render)
+        self._imu_shift_s = grabbed_s - frame_t_s if origin is None else origin
+        self._bridged = True
+        _log.info("IMU on the host clock, %s on its own: IMU times shifted by %.3f s onto the frames' clock",
+                  self.camera.url, -self._imu_shift_s)
 
     def _wait_for_imu(self, until_t_s: float, live: bool) -> None:
         """With the IMU lock held: wait (bounded) for the IMU reader to deliver past ``until_t_s`` (video clock).
@@ -519,7 +556,7 @@ class LivePipeline:
         max_gap = self.fusion.settings.max_gap_s
         deadline = time.monotonic() + (max_gap if live else _IMU_CATCH_UP_S)
         while not self._imu_ended.is_set() and not self._stop.is_set() and time.monotonic() < deadline:
-            newest = float(self._imu_buffer[-1].t_s) + offset if self._imu_buffer else self._imu_newest_t
+            newest = self._imu_t(self._imu_buffer[-1]) + offset if self._imu_buffer else self._imu_newest_t
             if newest >= until_t_s or (live and not until_t_s - newest <= max_gap):
                 return
             self._imu_lock.release()
@@ -604,7 +641,8 @@ class LivePipeline:
             except QueueClosed:
                 break
             if item is None:
-                if self.imu is not None and getattr(self.imu, "live", True):
+                # (an IMU to be put on the frames' clock waits for the first frame: _bridge_clocks)
+                if self.imu is not None and getattr(self.imu, "live", True) and not self._clocks_to_bridge():
                     self._drain_imu(math.inf)
                 continue
             self._process_frame(estimator, item, st)
@@ -626,6 +664,8 @@ class LivePipeline:
     def _process_frame(self, estimator: Estimator, item: _Grabbed, st: _RunState) -> None:
         """One frame: IMU up to its time, estimate, angles, counters, session log, ``on_frame``, indicators."""
         frame = item.frame
+        if math.isnan(st.first_t):
+            self._bridge_clocks(float(frame.t_s), item.grabbed_s)
         if self.imu is not None:
             self._drain_imu(float(frame.t_s))
             self._log_imu_rejections()
@@ -727,7 +767,8 @@ class LivePipeline:
                     "log_writes_dropped": self._writer.dropped_calls,
                     "dropped_frames": self.queue.dropped, "reconnects": self._reconnects,
                     "latency_p99_ms": self.latency.percentile(99), "imu_overflows": self._imu_overflows,
-                    **({} if self.imu is None else {"imu_rejected": self._imu_rejected()}),
+                    **({} if self.imu is None else {"imu_rejected": self._imu_rejected(),
+                                                    "imu_stream": self._imu_stream()}),
                     **({} if self.fusion is None else {"fusion": self._fusion_counters()})})
         except Exception:  # a broken database must not hide why the session ended
             _log.exception("closing the session log failed")
@@ -758,4 +799,13 @@ class LivePipeline:
             imu_samples=self._imu_count,
             imu_overflows=self._imu_overflows,
             fusion=self._fusion_counters(),
+            imu_stream=self._imu_stream(),
         )
+
+    def _imu_stream(self) -> dict[str, int] | None:
+        """The IMU stream's counters (see :attr:`PipelineResult.imu_stream`); None without an IMU."""
+        if self.imu is None:
+            return None
+        out = {} if self._parser_stats is None else dataclasses.asdict(self._parser_stats)
+        out["clock_restarts"] = out.get("clock_restarts", 0) + self.imu_check.clock_restarts
+        return out
