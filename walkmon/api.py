@@ -662,6 +662,39 @@ def _imu_coverage(imu_t_s: NDArray[np.float64], offset_s: float, frame_t_s: NDAr
     return round(coverage, 4)
 
 
+#: An IMU whose rotation rates match the video's this poorly (correlation of their magnitudes at the best clock
+#: offset within 0.5 s of the one in use) while the video turns this fast (RMS, deg/s) is not this video's IMU.
+MIN_RATE_CORRELATION = 0.4
+MIN_VIDEO_RATE_DEG_S = 3.0
+
+
+def _same_recording(imu: Any, ft: NDArray[np.float64], visual: NDArray[np.float64], ok: NDArray[np.bool_],
+                    ext: Any, offset_s: float | None, name: str) -> None:
+    """Refuse an IMU that plainly belongs to another recording (user review: a drone's GoPro telemetry was fused
+    into a simulated walk, exit 0, the walk read as no walking at all). A video's own IMU follows its rotation
+    rates (simulated walks, the GoPro clip: correlation 0.99); that telemetry on 7-20 s walks: 0.10-0.13, the
+    videos turning at 7-13 deg/s RMS. A video that hardly turns has nothing to compare and passes. With
+    ``offset_s`` given the rates are compared about that offset."""
+    from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
+    from walkmon.imu.extrinsics import visual_rates_rad_s  # noqa: PLC0415
+    from walkmon.imu.recordings import extrinsics_from_angles  # noqa: PLC0415
+
+    if offset_s:
+        try:
+            ext = extrinsics_from_angles(imu, ft - offset_s, visual, ok)
+        except InvalidInputError:
+            return
+    if ext is None or ext.n_intervals < 30 or ext.correlation >= MIN_RATE_CORRELATION:
+        return
+    _, _, w = visual_rates_rad_s(ft, rotation_from_angles_deg(visual[:, 0], visual[:, 1], visual[:, 2]), ok)
+    rate = float(np.degrees(np.sqrt(np.mean(np.sum(w**2, axis=1))))) if len(w) else 0.0
+    if rate > MIN_VIDEO_RATE_DEG_S:
+        msg = (f"{name}: the IMU's rotation does not follow the video's (the video turns at {rate:.0f} deg/s RMS; "
+               f"correlation of the rates {ext.correlation:.2f} at the best clock offset within 0.5 s of "
+               f"{offset_s or 0:g} s): is it this video's IMU? (--imu-offset-s sets the clock offset)")
+        raise InvalidInputError(msg)
+
+
 def _fused_columns(
     columns: dict[str, Any], estimates: Sequence[RotationEstimate], imu_path: str | Path, offset_s: float | None,
     extrinsics: str, imu_filter: str = "vqf", calib: str | Path | None = None,
@@ -688,6 +721,7 @@ def _fused_columns(
         info["extrinsics_estimate"] = f"not estimated: {exc}"
         if extrinsics == "estimate":
             raise
+    _same_recording(imu, ft, visual, ok, ext, offset_s, str(imu_path))
     if extrinsics == "estimate" and ext is not None and not ext.well_conditioned:
         msg = (f"cannot estimate the IMU-camera rotation from this recording (it rotated about one axis only: "
                f"excitation {ext.axis_excitation:.3f}, correlation {ext.correlation:.2f}); walk longer or give none")

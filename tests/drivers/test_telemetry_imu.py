@@ -297,3 +297,20 @@ def test_a_clip_cut_twice_keeps_its_own_imu_with_each_part(tmp_path: Path, edit_
         t_part, f_part = next((ts, f) for ts, f in video if ts >= 3.0 - 0.01)
     t_whole = min(whole, key=lambda item: float(np.abs(item[1].astype(int) - f_part.astype(int)).mean()))[0]
     assert t_part == pytest.approx(3.0, abs=0.02) and t_whole == pytest.approx(6.0, abs=0.02)
+
+
+@needs_karma
+def test_another_cameras_telemetry_is_refused_not_fused(walk: Path, tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    """User review: the drone's GoPro telemetry fused into a simulated walk's video (exit 0; the walk read as no
+    walking at all). Their rotation rates do not match at any offset near 0: one line, exit 2, nothing written;
+    the walk's own IMU still fuses."""
+    out = tmp_path / "foreign"
+    argv = ["analyze", str(walk / "video.mp4"), "--calib", str(walk / "camera.yaml"), "--imu", f"telemetry:{KARMA}",
+            "--out", str(out), "--no-progress"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "does not follow the video" in err
+    assert not (out / "angles.csv").exists()
+    argv[5] = str(walk / "imu.csv")
+    assert main(argv) == 0
