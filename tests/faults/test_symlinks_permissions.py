@@ -99,6 +99,30 @@ def test_batch_and_simulate_refuse_a_symlinked_output_folder(walk, tmp_path, cli
     assert out.is_symlink()
 
 
+def test_simulate_writes_every_file_private_and_not_through_a_planted_link(tmp_path: Path, cli) -> None:
+    """User review: under umask 022 'walkmon simulate' (and so 'walkmon demo') left video.mp4 and meta.json
+    world-readable (OpenCV's writer and a plain write; every other file 0600), and the video went through a link
+    planted at video.mp4."""
+    out = tmp_path / "sim"
+    out.mkdir(mode=0o700)
+    victim = tmp_path / "victim.mp4"
+    victim.write_bytes(b"keep")
+    (out / "video.mp4").symlink_to(victim)
+    old = os.umask(0o022)
+    try:
+        cli("simulate", "--walk", "normal:1", "--width", "160", "--height", "120", "--out", out,
+            "--no-progress").one_line_error("symbolic link")
+        assert victim.read_bytes() == b"keep"
+        (out / "video.mp4").unlink()
+        res = cli("simulate", "--walk", "normal:1", "--width", "160", "--height", "120", "--out", out,
+                  "--no-progress")
+    finally:
+        os.umask(old)
+    assert res.rc == 0, res.err
+    modes = {p.name: oct(p.stat().st_mode & 0o777) for p in out.iterdir()}
+    assert "video.mp4" in modes and "meta.json" in modes and set(modes.values()) == {"0o600"}, modes
+
+
 def test_calibration_writer_refuses_a_symlinked_yaml(tmp_path: Path) -> None:
     from walkmon.camera.model import default_camera, write_camera_yaml
 

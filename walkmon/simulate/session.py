@@ -9,9 +9,12 @@ Frame ``i`` is at ``t = i / fps``; the IMU shares that clock.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
+import os
 import platform
+import tempfile
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -25,7 +28,7 @@ from numpy.typing import NDArray
 from walkmon.camera.model import CameraModel, default_camera, write_camera_yaml
 from walkmon.consts import TRUTH_COLUMNS
 from walkmon.errors import InvalidInputError
-from walkmon.safe_io import prepare_dir
+from walkmon.safe_io import check_not_symlink, prepare_dir, write_text
 from walkmon.simulate._version import SIMULATOR_VERSION
 from walkmon.simulate.gait import STANDING_S, GaitModel
 from walkmon.simulate.imu import (
@@ -346,7 +349,7 @@ def simulate(
         "steps": steps_path.name,
     }
     meta["render_time_s"] = round(render_time, 3)
-    meta_path.write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
+    write_text(meta_path, json.dumps(meta, indent=2) + "\n")
     return SimulationResult(
         out, video_path if video else None, truth_path, imu_path, camera_path, meta_path,
         session.n_frames, session.model.duration_s, session.fps, session.camera, render_time, meta,
@@ -355,18 +358,30 @@ def simulate(
 
 def _write_video(session: SimulatedSession, path: Path,
                  on_frame: Callable[[int, int], None] | None = None) -> None:
+    """The video into a file of our own (0600, made here: OpenCV's writer honoured the umask, 0644, and followed
+    a link planted at video.mp4), moved onto ``path`` when complete, as safe_io's writers do."""
     cam = session.camera
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), session.fps, (cam.width_px, cam.height_px))
-    if not writer.isOpened():
-        msg = f"cannot write {path}: OpenCV has no working mp4v encoder here"
-        raise OSError(msg)
+    check_not_symlink(path)
+    fd, tmp_name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    os.close(fd)
+    tmp = Path(tmp_name)
     try:
-        for i, (_, frame, _) in enumerate(session.frames()):
-            writer.write(frame)
-            if on_frame is not None:
-                on_frame(i + 1, session.n_frames)
+        writer = cv2.VideoWriter(tmp_name, cv2.VideoWriter_fourcc(*"mp4v"), session.fps, (cam.width_px, cam.height_px))
+        if not writer.isOpened():
+            msg = f"cannot write {path}: OpenCV has no working mp4v encoder here"
+            raise OSError(msg)
+        try:
+            for i, (_, frame, _) in enumerate(session.frames()):
+                writer.write(frame)
+                if on_frame is not None:
+                    on_frame(i + 1, session.n_frames)
+        finally:
+            writer.release()
+        check_not_symlink(path)
+        os.replace(tmp, path)
     finally:
-        writer.release()
+        with contextlib.suppress(OSError):
+            tmp.unlink()
 
 
 def _unwrap_yaw(angles: NDArray[np.float64]) -> NDArray[np.float64]:
