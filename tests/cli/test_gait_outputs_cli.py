@@ -35,6 +35,9 @@ def test_analyze_accelerometer_only(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert main(["analyze", "--imu", str(tmp_path / "acc.csv"), "--out", str(tmp_path / "out")]) == 0
     out = capsys.readouterr().out
     assert "no yaw" in out and "timeline.csv" in out
+    n_rows = len((tmp_path / "acc.csv").read_text().splitlines()) - 1
+    # the file's samples counted as such (user review: it printed the output's rows as 'accelerometer rows')
+    assert f"{n_rows} accelerometer samples (100 Hz" in out
     doc = json.loads((tmp_path / "out" / "indicators.json").read_text())
     assert doc["schema_version"] == 2
     assert doc["input"]["activity_from"] == "accelerometer only"

@@ -126,6 +126,15 @@ def test_a_dragged_foot_and_back_is_a_posture_change_with_its_labels(tmp_path) -
     inside = [a for t, a, _ in rows if pause.start_s + 0.6 < t < pause.end_s - 0.6]
     assert inside and set(inside) == {"standing"}
     assert any(b["start_s"] < pause.start_s and pause.end_s < b["end_s"] for b in doc["bouts"])
+    # every bout carries its asymmetry (documented; it was missing): its segments', weighted by their durations,
+    # so the dragged foot's bout shows the long right steps too
+    for b in doc["bouts"]:
+        inside = [s for s in segs if b["start_s"] <= s["start_s"] and s["end_s"] <= b["end_s"]]
+        vals = [(s["end_s"] - s["start_s"], s["asymmetry"]["step_time_ratio"]) for s in inside
+                if s["asymmetry"].get("step_time_ratio") is not None]
+        want = sum(w * v for w, v in vals) / sum(w for w, _ in vals)
+        assert b["asymmetry"]["step_time_ratio"] == pytest.approx(want, abs=1e-3)
+    assert doc["bouts"][0]["asymmetry"]["step_time_ratio"] > 1.1  # the first bout: dragged foot, then normal
 
 
 @pytest.mark.parametrize("seed", [1, 2])

@@ -85,11 +85,11 @@ def run(args: argparse.Namespace) -> int:
     files = result.write(out_dir)
     info = result.imu_info or {}
     if info.get("mode") == "imu_only":
-        sys.stdout.write(f"{info['rows']} IMU rows ({info['rate_hz']:.0f} Hz, {info['imu_filter']}) "
-                         f"-> {files['angles.csv']}\n")
+        sys.stdout.write(f"{info['samples']} IMU samples ({info['rate_hz']:.0f} Hz, {info['imu_filter']}) -> "
+                         f"{info['rows']} rows of {files['angles.csv']}\n")
     if info.get("mode") == "accelerometer_only":
-        sys.stdout.write(f"{info['rows']} accelerometer rows ({info['rate_hz']:.0f} Hz; no gyroscope: no yaw, no turns)"
-                         f" -> {files['angles.csv']}\n")
+        sys.stdout.write(f"{info['samples']} accelerometer samples ({info['rate_hz']:.0f} Hz; no gyroscope: no yaw, "
+                         f"no turns) -> {info['rows']} rows of {files['angles.csv']}\n")
     if info.get("mode") == "fused":
         sys.stdout.write(f"fused with {info['imu']}: {info['visual_increments_used']} visual increments used, "
                          f"{info['visual_increments_rejected']} rejected\n")

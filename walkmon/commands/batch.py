@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 NAME = "batch"
 HELP = "analyse many recordings (videos and/or IMU files) as 'analyze' does, in parallel on Dask -> OUT/summary.*"
@@ -85,6 +86,6 @@ def run(args: argparse.Namespace) -> int:
     n_failed = len(summary) - n_ok
     n_kept = int(summary["resumed"].sum())
     kept = f" ({n_kept} kept from the earlier run)" if n_kept else ""
-    sys.stdout.write(f"{len(summary)} recordings: {n_ok} ok{kept}, {n_failed} failed -> {args.out}/summary.parquet, "
+    sys.stdout.write(f"{len(summary)} recordings: {n_ok} ok{kept}, {n_failed} failed -> {Path(args.out) / 'summary.parquet'}, "
                      f"summary.csv, bouts.parquet\n")
     return 1 if n_failed else 0

@@ -1386,6 +1386,8 @@ def _bout_doc(
         "spectral_cadence_spm": _num(b.spectral_cadence_spm, 2),
         "n_turns": sum(1 for u in seg.turns if u.end_s > b.start_s and u.start_s < b.end_s),
         "axes": {ax: (None if no_yaw and ax == "yaw" else axes[ax].to_dict()) for ax in AXES},
+        # over its segments, weighted by their durations, as the session's (documented; it was missing)
+        "asymmetry": {k: _num(v) for k, v in _weighted_asym(inside).items()},
         "label": label, "reasons": reasons,
     }
 
