@@ -92,3 +92,32 @@ def test_calibrate_converts_a_profile_to_camera_info_yaml(tmp_path: Path, capsys
     assert back.distortion_model == "equidistant"
     assert main(["calibrate", str(tmp_path / "missing.json"), "--out", str(out)]) == 2
     assert "cannot read lens profile" in capsys.readouterr().err
+
+
+def test_profiles_walkmon_cannot_read_right_are_refused_and_harmless_forms_read(tmp_path: Path) -> None:
+    """User review: a digital lens (GoPro SuperView: a non-radial stretch after the fisheye) and a zoom lens's
+    interpolated intrinsics were silently taken as the plain fisheye; a null coefficient got a contradictory
+    message; a profile saved with a BOM was refused; calib_dimension 1920.7 was cut to 1920."""
+    with pytest.raises(ConfigError, match="digital lens 'gopro_superview'"):
+        read_lens_profile(_write(tmp_path, dict(PROFILE, digital_lens="gopro_superview")))
+    with pytest.raises(ConfigError, match="zoom lens"):
+        read_lens_profile(_write(tmp_path, dict(PROFILE, interpolations={"24": {}, "35": {}})))
+    null = dict(PROFILE, fisheye_params=dict(PROFILE["fisheye_params"], distortion_coeffs=[0.046, None, 0, 0]))
+    with pytest.raises(ConfigError, match="distortion_coeffs must hold numbers only"):
+        read_lens_profile(_write(tmp_path, null))
+    with pytest.raises(ConfigError, match="whole number of pixels"):
+        read_lens_profile(_write(tmp_path, dict(PROFILE, calib_dimension={"w": 1920.7, "h": 1080})))
+    assert read_lens_profile(_write(tmp_path, dict(PROFILE, digital_lens=None))).width_px == 3840
+    bom = tmp_path / "bom.json"
+    bom.write_bytes(b"\xef\xbb\xbf" + json.dumps(PROFILE).encode())
+    assert read_lens_profile(bom).fx == pytest.approx(1790.0)
+
+
+@pytest.mark.parametrize("option", [["--model", "plumb_bob"], ["--board", "7x5"], ["--every", "3"]])
+def test_calibrate_refuses_chessboard_options_with_a_profile(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                             option: list[str]) -> None:
+    """They were silently ignored: '--model plumb_bob' wrote the profile's equidistant camera."""
+    out = tmp_path / "cam.yaml"
+    assert main(["calibrate", str(_write(tmp_path, PROFILE)), "--out", str(out), *option]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and option[0] in err and not out.exists()

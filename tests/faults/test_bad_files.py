@@ -531,3 +531,20 @@ def test_imu_stopping_before_the_video_ends_leaves_its_last_seconds_unknown(walk
     assert res.rc == 0, res.err
     rows = [r.split(",") for r in (out / "timeline.csv").read_text().splitlines()[1:]]
     assert rows[-1][1] == "unknown"  # 5 s: the IMU had stopped (the second was its last one's, standing)
+
+
+def test_calibrate_on_a_cut_video_prints_one_line_and_has_no_progress_option(walk: Path, tmp_path: Path) -> None:
+    """User review: FFmpeg's own 'moov atom not found' came before walkmon's line (a fresh process: no earlier
+    video open had quietened FFmpeg); and 'calibrate --no-progress' was an unknown option."""
+    import subprocess
+    import sys
+
+    cut = tmp_path / "cut.mp4"
+    cut.write_bytes((walk / "video.mp4").read_bytes()[:3000])
+    env = {k: v for k, v in os.environ.items() if k != "OPENCV_FFMPEG_LOGLEVEL"}
+    for extra in ([], ["--no-progress"]):
+        res = subprocess.run([sys.executable, "-m", "walkmon", "calibrate", str(cut), "--out", str(tmp_path / "c.yaml"),
+                              *extra], capture_output=True, text=True, timeout=120, env=env)
+        assert res.returncode == 2
+        assert len(res.stderr.strip().splitlines()) == 1, res.stderr
+        assert "cannot open as a video" in res.stderr  # the video's fault, the option known

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from walkmon.camera.model import DISTORTION_MODELS, CameraModel
 from walkmon.errors import ConfigError
@@ -46,10 +47,10 @@ def camera_from_lens_profile(profile: Any, *, source: str = "lens profile") -> C
         raise ConfigError(msg)
     try:
         dim = profile["calib_dimension"]
-        width, height = int(dim["w"]), int(dim["h"])
+        width, height = _whole(dim["w"], "calib_dimension.w", source), _whole(dim["h"], "calib_dimension.h", source)
         params = profile["fisheye_params"]
-        K = np.asarray(params["camera_matrix"], dtype=float)
-        coeffs = np.asarray(params["distortion_coeffs"], dtype=float).ravel()
+        K = _numbers(params["camera_matrix"], "camera_matrix", source)
+        coeffs = _numbers(params["distortion_coeffs"], "distortion_coeffs", source).ravel()
     except KeyError as exc:
         msg = f"{source}: missing {exc.args[0]!r} (not a Gyroflow lens profile?)"
         raise ConfigError(msg) from None
@@ -61,6 +62,18 @@ def camera_from_lens_profile(profile: Any, *, source: str = "lens profile") -> C
     if gyroflow_model not in _MODELS:
         msg = (f"{source}: distortion model {gyroflow_model!r} is not supported (walkmon reads "
                f"{', '.join(_MODELS)}); calibrate with 'walkmon calibrate --model equidistant' instead")
+        raise ConfigError(msg)
+    digital = profile.get("digital_lens")
+    if digital not in (None, "", "None"):
+        # SuperView, HyperView, Linear crops: a non-radial stretch or crop the camera applies after the lens; its
+        # intrinsics alone are wrong for those frames (user review: silently taken as a plain fisheye)
+        msg = (f"{source}: digital lens {digital!r} (a stretch or crop the camera applies after the lens) is not "
+               f"supported: use a profile of a setting without one, or calibrate with 'walkmon calibrate --model "
+               f"equidistant'")
+        raise ConfigError(msg)
+    if profile.get("interpolations"):
+        msg = (f"{source}: a zoom lens profile (intrinsics interpolated over focal lengths) is not supported: use the "
+               f"profile of one focal length")
         raise ConfigError(msg)
     for key in ("input_horizontal_stretch", "input_vertical_stretch"):
         stretch = profile.get(key)
@@ -96,11 +109,31 @@ def camera_from_lens_profile(profile: Any, *, source: str = "lens profile") -> C
         raise ConfigError(msg) from None
 
 
+def _whole(v: Any, what: str, source: str) -> int:
+    """A pixel count: a whole number (1920.7 was cut to 1920 without a word)."""
+    if isinstance(v, bool) or not isinstance(v, int | float) or not float(v).is_integer():
+        msg = f"{source}: {what} must be a whole number of pixels, got {v!r}"
+        raise ConfigError(msg)
+    return int(v)
+
+
+def _numbers(v: Any, what: str, source: str) -> NDArray[np.float64]:
+    """An array of finite numbers (a null read as NaN and got a contradictory message)."""
+    try:
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or not np.all(np.isfinite(a)):
+        msg = f"{source}: {what} must hold numbers only, got {json.dumps(v)[:80]}"
+        raise ConfigError(msg)
+    return a
+
+
 def read_lens_profile(path: str | Path) -> CameraModel:
     """Read a Gyroflow lens profile JSON file (ConfigError with one line when it cannot be used)."""
     p = Path(path)
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
+        data = json.loads(p.read_text(encoding="utf-8-sig"))  # a BOM, as Windows editors save: still the profile
     except OSError as exc:
         msg = f"cannot read lens profile {p}: {exc.strerror or exc}"
         raise ConfigError(msg) from None

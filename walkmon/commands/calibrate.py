@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
 import sys
 from collections.abc import Iterator
@@ -13,7 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from walkmon.errors import InvalidInputError
+from walkmon.errors import ConfigError, InvalidInputError
 
 NAME = "calibrate"
 HELP = "calibrate camera intrinsics from chessboard views (video file or image folder) into ROS camera_info YAML"
@@ -78,12 +79,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.description = DESCRIPTION
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.add_argument("source", help="video file, a folder of chessboard images, or a Gyroflow lens profile .json")
-    p.add_argument("--board", type=_board, default=(9, 6), help="inner corners, COLSxROWS (default 9x6)")
-    p.add_argument("--square-mm", type=_positive, default=25.0, help="chessboard square size in mm (default 25)")
-    p.add_argument("--model", choices=("plumb_bob", "equidistant"), default="plumb_bob",
-                   help="distortion model: plumb_bob (ordinary lenses) or equidistant (fisheye: action cameras)")
-    p.add_argument("--every", type=_every, default=10, help="use every Nth video frame (default 10)")
+    # chessboard options: None when not given, so that a lens profile (which states its own model) can refuse them
+    p.add_argument("--board", type=_board, default=None, help="inner corners, COLSxROWS (default 9x6)")
+    p.add_argument("--square-mm", type=_positive, default=None, help="chessboard square size in mm (default 25)")
+    p.add_argument("--model", choices=("plumb_bob", "equidistant"), default=None,
+                   help="distortion model: plumb_bob (ordinary lenses, the default) or equidistant (fisheye: action "
+                        "cameras)")
+    p.add_argument("--every", type=_every, default=None, help="use every Nth video frame (default 10)")
     p.add_argument("--out", required=True, help="output camera_info YAML path")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
 
 
 def _images(source: Path, every: int, progress: Any = None) -> Iterator[NDArray[np.uint8]]:
@@ -110,6 +114,7 @@ def _images(source: Path, every: int, progress: Any = None) -> Iterator[NDArray[
     if not source.exists():
         msg = f"{source}: no such file or folder"
         raise InvalidInputError(msg)
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # FFmpeg's own lines: ours is the one (as VideoFile)
     cap = cv2.VideoCapture(str(source))
     if not cap.isOpened():
         msg = f"{source}: cannot open as a video"
@@ -140,19 +145,27 @@ def run(args: argparse.Namespace) -> int:
     from walkmon.camera.model import write_camera_yaml  # noqa: PLC0415
     from walkmon.commands.progress import Progress  # noqa: PLC0415
 
+    chessboard = {"--board": args.board, "--square-mm": args.square_mm, "--model": args.model, "--every": args.every}
     if str(args.source).lower().endswith(".json"):  # a published (Gyroflow) lens profile
         from walkmon.camera.lens_profile import read_lens_profile  # noqa: PLC0415
 
+        given = [k for k, v in chessboard.items() if v is not None]
+        if given:  # they were silently ignored (user review): the profile states its lens model itself
+            msg = (f"{', '.join(given)} apply to chessboard calibration; a lens profile states its own model: "
+                   f"give the profile alone")
+            raise ConfigError(msg)
         cam = read_lens_profile(args.source)
         write_camera_yaml(cam, args.out)
         sys.stdout.write(f"lens profile {cam.name!r}: {cam.width_px}x{cam.height_px} {cam.distortion_model}, "
                          f"fx={cam.fx:.1f} fy={cam.fy:.1f} cx={cam.cx:.1f} cy={cam.cy:.1f} -> {args.out}\n")
         return 0
 
-    with Progress(None, "finding the chessboard", "image") as progress:
-        result = calibrate_chessboard(
-            _images(Path(args.source), args.every, progress), args.board, args.square_mm, distortion_model=args.model
-        )
+    board = (9, 6) if args.board is None else args.board
+    square_mm = 25.0 if args.square_mm is None else args.square_mm
+    every = 10 if args.every is None else args.every
+    with Progress(None, "finding the chessboard", "image", enabled=False if args.no_progress else None) as progress:
+        result = calibrate_chessboard(_images(Path(args.source), every, progress), board, square_mm,
+                                      distortion_model=args.model or "plumb_bob")
     write_camera_yaml(result.camera, args.out)
     cam = result.camera
     sys.stdout.write(
