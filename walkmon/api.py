@@ -637,6 +637,9 @@ def _imu_only_columns(
     return dict(cols), info
 
 
+#: Largest clock offset an IMU may be given (s; an IMU timed in UNIX seconds needs about 1.7e9).
+MAX_IMU_OFFSET_S = 1e10
+
 #: Least share of the video's time span the IMU must cover to be fused (below: an error, not zero angles).
 MIN_IMU_COVERAGE = 0.5
 
@@ -739,6 +742,14 @@ def _fused_columns(
         else:
             info["time_offset"] = "not estimated (gyro and visual rates do not agree): 0"
             _log.warning("%s: could not estimate the IMU clock offset; using 0 (give --imu-offset-s)", imu_path)
+    if offset_s is not None and extrinsics != "estimate":
+        info["time_offset"] = "given (--imu-offset-s)"
+        if ext is not None and ext.correlation >= 0.9 and abs(ext.time_offset_s - offset_s) > 0.1:
+            # user review: -0.5 s given where the rates agreed at +0.037 s (correlation 0.99), without a word
+            _log.warning("%s: --imu-offset-s %g s, but the gyro and video rates agree best at %+.3f s "
+                         "(correlation %.2f): check the offset", imu_path, offset_s, ext.time_offset_s,
+                         ext.correlation)
+            info["time_offset"] += f"; the rates agree best at {ext.time_offset_s:+.3f} s"
     info["extrinsics_used"] = {"camera_from_imu": settings.camera_from_imu_matrix.round(6).tolist(),
                                "time_offset_s": settings.time_offset_s}
     info["imu_coverage"] = _imu_coverage(imu.t_s, settings.time_offset_s, ft, str(imu_path))
@@ -796,6 +807,11 @@ def analyze(
         raise ConfigError(msg)
     if imu_offset_s is not None and not math.isfinite(float(imu_offset_s)):
         msg = f"imu_offset_s must be a finite number of seconds, got {imu_offset_s!r}"
+        raise ConfigError(msg)
+    if imu_offset_s is not None and abs(float(imu_offset_s)) > MAX_IMU_OFFSET_S:
+        # 1e308 made every IMU time 1e308: 'IMU rate must be positive, got 0.0' (user review); an epoch-timed IMU
+        # against a video timed from 0 needs about -1.7e9
+        msg = f"imu_offset_s must be within +-{MAX_IMU_OFFSET_S:g} s, got {imu_offset_s!r}"
         raise ConfigError(msg)
     from walkmon.safe_io import pipes_read_again  # noqa: PLC0415
 

@@ -314,3 +314,17 @@ def test_another_cameras_telemetry_is_refused_not_fused(walk: Path, tmp_path: Pa
     assert not (out / "angles.csv").exists()
     argv[5] = str(walk / "imu.csv")
     assert main(argv) == 0
+
+
+@needs_karma
+def test_a_given_offset_the_rates_contradict_is_said(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """User review: --imu-offset-s -0.5 on the GoPro clip ran silently (its own rates agree at +0.04 s with
+    correlation 0.99), and imu.json did not say the offset was given."""
+    out = tmp_path / "k"
+    with caplog.at_level("WARNING"):
+        assert main(["analyze", str(KARMA), "--imu", f"telemetry:{KARMA}", "--imu-offset-s=-0.5", "--out", str(out),
+                     "--no-progress"]) == 0
+    info = json.loads((out / "imu.json").read_text())
+    assert info["time_offset"].startswith("given") and "agree best at +0.0" in info["time_offset"]
+    assert any("check the offset" in r.getMessage() for r in caplog.records)
+    assert info["extrinsics_used"]["time_offset_s"] == -0.5  # what was given is what was used

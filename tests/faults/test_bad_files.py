@@ -330,6 +330,14 @@ def test_non_finite_imu_offset_is_a_usage_error(walk: Path, tmp_path: Path, cli,
     res.one_line_error("finite")
 
 
+@pytest.mark.parametrize("offset", ["1e308", "-2e10"])
+def test_absurd_imu_offset_is_named_as_such(walk: Path, tmp_path: Path, cli, offset: str) -> None:
+    """1e308 read 'IMU rate must be positive, got 0.0' (user review): every IMU time became 1e308."""
+    res = cli("analyze", walk / "video.mp4", "--imu", walk / "imu.csv", f"--imu-offset-s={offset}",
+              "--out", tmp_path / "out")
+    res.one_line_error("imu_offset_s must be within")
+
+
 def test_video_damaged_mid_file_is_an_error_not_a_shorter_walk(walk: Path, tmp_path: Path, cli) -> None:
     data = bytearray((walk / "video.mp4").read_bytes())
     start = int(len(data) * 0.4)
