@@ -196,6 +196,63 @@ def test_hook_and_its_children_are_killed_on_time(tmp_path: Path) -> None:
     assert lived < 3.0  # killed at 0.5 s with the shell that started it (before: 16 s with timeout 1 s)
 
 
+def _alive(pid: int) -> bool:
+    stat = Path(f"/proc/{pid}/stat")
+    try:
+        return stat.read_text().split()[2] != "Z"
+    except (OSError, IndexError):
+        return False
+
+
+@pytest.mark.parametrize("when", ["timeout", "close"])
+def test_what_a_finished_hook_left_running_is_killed(tmp_path: Path, when: str) -> None:
+    """User review: a hook that exits at once but leaves 'sleep 300 &' behind: the sleep outlived the session
+    (only a hook still running was killed). Now its group goes at the hook's timeout, or at the session's close."""
+    from walkmon.live.alerts import AlertEvent
+    from walkmon.live.sinks import AlertSinks, SinkSettings
+
+    pids = tmp_path / "pids"
+    hook = ["sh", "-c", f"cat >/dev/null; sleep 300 & echo $! > {pids}; exit 0"]
+    timeout = 0.5 if when == "timeout" else 30.0
+    sinks = AlertSinks(SinkSettings(terminal=False, sound=False, hook_command=tuple(hook), hook_timeout_s=timeout))
+    try:
+        sinks.deliver([AlertEvent(t_s=1.0, kind="bent_forward", state="raised", value=20.0, threshold=15.0,
+                                  message="test")])
+        t0 = time.monotonic()
+        while not (pids.exists() and pids.read_text().strip()) and time.monotonic() - t0 < 10:
+            time.sleep(0.05)
+        child = int(pids.read_text())
+        if when == "close":
+            time.sleep(0.3)
+            assert _alive(child)  # the hook has exited, its child runs on until the session ends
+            sinks.close()
+        while time.monotonic() - t0 < 10 and _alive(child):
+            time.sleep(0.05)
+        assert not _alive(child)
+        assert time.monotonic() - t0 < 3.0
+    finally:
+        sinks.close()
+
+
+def test_a_hook_that_does_not_read_a_long_event_does_not_hold_up_the_loop(tmp_path: Path) -> None:
+    """User review: the event was written to the hook's stdin before its timer started; over 64 KiB (a long wearer's
+    name) a hook that never reads blocked the processing loop for as long as it ran (60 s per alert)."""
+    from walkmon.live.alerts import AlertEvent
+    from walkmon.live.sinks import AlertSinks, SinkSettings
+
+    sinks = AlertSinks(SinkSettings(terminal=False, sound=False, hook_command=("sleep", "60"), hook_timeout_s=0.5),
+                       person="A" * 70000)
+    try:
+        t0 = time.monotonic()
+        sinks.deliver([AlertEvent(t_s=1.0, kind="bent_forward", state="raised", value=20.0, threshold=15.0,
+                                  message="test")])
+        assert time.monotonic() - t0 < 0.5
+        proc = sinks._children[0][0]
+        proc.wait(timeout=5)  # killed at its timeout
+    finally:
+        sinks.close()
+
+
 # ------------------------------------------------------------------------------------------------ systemd unit
 def test_unit_keeps_the_health_data_private_and_allows_the_devices_it_needs(unit_settings: dict[str, list[str]]) -> None:
     u = unit_settings

@@ -79,3 +79,35 @@ def test_read_config_errors_name_the_file(tmp_path: Path) -> None:
     unknown.write_text("[alerts]\nfoo = 1\n")
     with pytest.raises(ConfigError, match="unknown.toml"):
         read_config(unknown)
+
+
+@pytest.mark.parametrize(("sinks", "match"), [
+    ('hook_command = ["/nonexistent/hook"]', "no program '/nonexistent/hook'"),
+    ('hook_command = [""]', "the program is empty"),
+    ("hook_command = [\"{script}\"]", "is not executable"),
+    ('hook_command = ["no-such-walkmon-hook-xyz"]', "not on PATH"),
+    ('sound = true\nsound_command = ["/bin/true"]\nsound_file = "/nonexistent.wav"', "sound_file"),
+    ('apprise_urls = ["notaurl"]', "apprise does not accept"),
+])
+def test_alert_sinks_that_cannot_work_fail_the_check_and_the_start(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                                                   sinks: str, match: str) -> None:
+    """User review: a missing, empty or non-executable hook, a missing sound file and a malformed apprise URL all
+    read 'ok' from 'config --check', and 'live' started and lost the first alert. Now both stop in one line."""
+    from walkmon.commands.cli import main
+
+    script = tmp_path / "hook.sh"
+    script.write_text("#!/bin/sh\nexit 0\n", encoding="utf-8")
+    script.chmod(0o644)
+    cfg = tmp_path / "walkmon.toml"
+    cfg.write_text("[sinks]\n" + sinks.replace("{script}", str(script)) + "\n", encoding="utf-8")
+    cfg.chmod(0o600)
+    assert main(["config", "--check", str(cfg)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and match in err
+    assert main(["live", "--config", str(cfg), "--camera", "sim:normal:1?width=64&height=48&realtime=0",
+                 "--data-dir", str(tmp_path / "data"), "--status", "none"]) == 2
+    assert match in capsys.readouterr().err
+    assert not (tmp_path / "data" / "walkmon.sqlite").exists()  # no session was started
+    script.chmod(0o755)
+    if "is not executable" in match:
+        assert main(["config", "--check", str(cfg)]) == 0

@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
 
 def check_sources(cfg: Any) -> None:
     """What 'walkmon live' checks of a config before it opens any hardware: the camera and IMU URLs (scheme and
-    options), the camera calibration and the accelerometer calibration files. A config this passed was refused by
+    options), the camera calibration and the accelerometer calibration files, the alert sinks (check_sinks). A config this passed was refused by
     'live' (user review: a missing calibration file or an 'ftp:' URL read 'ok'; under the unit, a restart loop)."""
     from walkmon.camera.model import read_camera_yaml  # noqa: PLC0415
     from walkmon.commands.live import live_fusion_settings  # noqa: PLC0415
@@ -52,3 +52,6 @@ def check_sources(cfg: Any) -> None:
     if cfg.camera.calib:
         read_camera_yaml(cfg.camera.calib)
     live_fusion_settings(cfg.imu)  # reads [imu] calibration
+    from walkmon.live.sinks import check_sinks  # noqa: PLC0415
+
+    check_sinks(cfg.sinks)  # the alerts' hook, player, sound file and apprise URLs

@@ -193,7 +193,7 @@ def _run(args: argparse.Namespace) -> int:
     from walkmon.live.pipeline import LivePipeline  # noqa: PLC0415
     from walkmon.live.sdnotify import Notifier  # noqa: PLC0415
     from walkmon.live.session_log import SessionLog, default_data_dir  # noqa: PLC0415
-    from walkmon.live.sinks import AlertSinks  # noqa: PLC0415
+    from walkmon.live.sinks import AlertSinks, check_sinks  # noqa: PLC0415
 
     cfg = read_config(args.config) if args.config else DEFAULT_CONFIG
     cfg = dataclasses.replace(
@@ -220,6 +220,7 @@ def _run(args: argparse.Namespace) -> int:
 
         fusion = LiveFusion(live_fusion_settings(cfg.imu))
     calib = read_camera_yaml(cfg.camera.calib) if cfg.camera.calib else None
+    check_sinks(cfg.sinks)  # a hook or URL that cannot work stops the start, not the first alert
     data_dir = Path(cfg.session.data_dir).expanduser() if cfg.session.data_dir else default_data_dir()
     stream = sys.stderr
     status = _Status(args.status, stream)

@@ -16,6 +16,7 @@ off the device, by the operator's choice (the dashboard and everything else stay
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import io
 import json
@@ -35,9 +36,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
+from walkmon.errors import ConfigError
 from walkmon.live.alerts import AlertEvent
 
-__all__ = ["DEFAULT_SINK_SETTINGS", "AlertSinks", "SinkSettings", "beep_wav_bytes"]
+__all__ = ["DEFAULT_SINK_SETTINGS", "AlertSinks", "SinkSettings", "beep_wav_bytes", "check_sinks"]
 
 _log = logging.getLogger(__name__)
 
@@ -75,6 +77,50 @@ class SinkSettings:
 DEFAULT_SINK_SETTINGS = SinkSettings()
 
 
+def check_sinks(settings: SinkSettings) -> None:
+    """ConfigError (one line) naming the first configured sink that cannot work: a hook or player that is not an
+    executable program, a sound file that cannot be read, sound with no player, an apprise URL apprise does not
+    take (or apprise missing). ``walkmon config --check`` and ``walkmon live`` run it before anything starts
+    (user review: a missing, empty or non-executable hook, a missing sound file and a malformed URL all read 'ok',
+    and the alert they were for was lost at its first raising)."""
+    if settings.hook_command:
+        _check_program(settings.hook_command[0], "sinks.hook_command")
+    if settings.sound:
+        if settings.sound_command:
+            _check_program(settings.sound_command[0], "sinks.sound_command")
+        elif not any(shutil.which(p[0]) for p in _PLAYERS):
+            msg = "sinks.sound is on but neither paplay nor aplay is installed: install one or set sinks.sound_command"
+            raise ConfigError(msg)
+        if settings.sound_file and not (os.path.isfile(settings.sound_file) and os.access(settings.sound_file, os.R_OK)):
+            msg = f"sinks.sound_file {settings.sound_file!r}: no readable file there"
+            raise ConfigError(msg)
+    if settings.apprise_urls:
+        try:
+            import apprise  # noqa: PLC0415
+        except ImportError:
+            msg = "sinks.apprise_urls is set but apprise is not installed (pip install 'walkmon[notify]')"
+            raise ConfigError(msg) from None
+        for url in settings.apprise_urls:
+            if not apprise.Apprise().add(url):
+                scheme = url.split("://", 1)[0] + "://..." if "://" in url else "(no scheme://)"
+                msg = f"sinks.apprise_urls: apprise does not accept the URL {scheme} (its keys are not shown)"
+                raise ConfigError(msg)
+
+
+def _check_program(program: str, where: str) -> None:
+    """An executable file (a path), or a name on PATH."""
+    if not program.strip():
+        msg = f"{where}: the program is empty"
+        raise ConfigError(msg)
+    found = program if os.sep in program else shutil.which(program)
+    if found is None or not os.path.isfile(found):
+        msg = f"{where}: no program {program!r} there" + ("" if os.sep in program else " (not on PATH)")
+        raise ConfigError(msg)
+    if not os.access(found, os.X_OK):
+        msg = f"{where}: {program!r} is not executable (chmod +x it)"
+        raise ConfigError(msg)
+
+
 def beep_wav_bytes(freq_hz: float = 880.0, duration_s: float = 0.3, rate_hz: int = 16000) -> bytes:
     """A mono 16-bit WAV of a sine beep with short fades."""
     n = int(duration_s * rate_hz)
@@ -106,6 +152,27 @@ def _kill_group(proc: subprocess.Popen[bytes]) -> None:
         _log.error("alert child pid %d did not die after SIGKILL", proc.pid)
 
 
+def _group_alive(pgid: int) -> bool:
+    """Some process of the group ``pgid`` is still running."""
+    try:
+        os.killpg(pgid, 0)
+    except OSError:
+        return False
+    return True
+
+
+def _feed(proc: subprocess.Popen[bytes], data: bytes, what: str, program: str) -> None:
+    """Write a hook's input and close it (a thread of its own: see AlertSinks._spawn)."""
+    assert proc.stdin is not None
+    try:
+        proc.stdin.write(data)
+    except OSError as exc:
+        _log.warning("alert %s %s did not read its input: %s", what, program, exc)
+    finally:
+        with contextlib.suppress(OSError):
+            proc.stdin.close()
+
+
 class AlertSinks:
     """Deliver :class:`AlertEvent` objects to the configured sinks. ``deliver(events)``, ``close()``."""
 
@@ -118,6 +185,7 @@ class AlertSinks:
         if settings.apprise_urls:
             self._apprise = _AppriseWorker.create(settings.apprise_urls, settings.hook_timeout_s)
         self._children: list[tuple[subprocess.Popen[bytes], float, str]] = []
+        self._groups: list[int] = []  # the process groups of every hook and player started
         self._timers: list[threading.Timer] = []
         self._tmpdir: tempfile.TemporaryDirectory[str] | None = None
         self._sound_argv: list[str] | None = None
@@ -180,26 +248,28 @@ class AlertSinks:
         except OSError as exc:
             _log.warning("alert %s %s failed to start: %s", what, argv[0], exc)
             return
-        if stdin_bytes is not None and proc.stdin is not None:
-            try:
-                proc.stdin.write(stdin_bytes)  # small: fits the pipe buffer, never blocks
-            except OSError as exc:
-                _log.warning("alert %s %s did not read its input: %s", what, argv[0], exc)
-            finally:
-                try:
-                    proc.stdin.close()
-                except OSError:
-                    pass
         self._children.append((proc, time.monotonic(), what))
+        self._groups.append(proc.pid)  # its process group: the hook's own id (start_new_session)
         # killed on time even when no further alert (and so no _reap) comes
         timer = threading.Timer(self.settings.hook_timeout_s, self._expire, (proc, what))
         timer.daemon = True
         timer.start()
         self._timers.append(timer)
+        if stdin_bytes is not None and proc.stdin is not None:
+            # from a thread: a hook that does not read its input would block the write once the event is beyond
+            # the pipe's 64 KiB (a long wearer's name), and with it the processing loop (user review: 60 s per alert)
+            threading.Thread(target=_feed, args=(proc, stdin_bytes, what, argv[0]), name="walkmon-hook-input",
+                             daemon=True).start()
 
     def _expire(self, proc: subprocess.Popen[bytes], what: str) -> None:
         if proc.poll() is None:
             _log.warning("alert %s (pid %d) still running after %g s: killed", what, proc.pid,
+                         self.settings.hook_timeout_s)
+            _kill_group(proc)
+        elif _group_alive(proc.pid):
+            # the hook exited and left processes behind ('sleep 300 &'): they go with it at its timeout, as the
+            # README says of every process a hook started (user review: they lived on after the session)
+            _log.warning("alert %s (pid %d) left processes running after %g s: killed", what, proc.pid,
                          self.settings.hook_timeout_s)
             _kill_group(proc)
 
@@ -232,6 +302,11 @@ class AlertSinks:
         self._timers = []
         self._reap()
         self._children = []
+        for pgid in self._groups:  # what the hooks left running dies with the session
+            if _group_alive(pgid):
+                with contextlib.suppress(OSError):
+                    os.killpg(pgid, signal.SIGKILL)
+        self._groups = []
         if self._apprise is not None:
             self._apprise.close()
             self._apprise = None
