@@ -111,3 +111,16 @@ def test_alert_sinks_that_cannot_work_fail_the_check_and_the_start(tmp_path: Pat
     script.chmod(0o755)
     if "is not executable" in match:
         assert main(["config", "--check", str(cfg)]) == 0
+
+
+@pytest.mark.parametrize(("host", "ok"), [("127.0.0.1", True), ("127.8.9.1", True), ("::1", True), ("localhost", True),
+                                          ("127.example.com", False), ("0.0.0.0", False)])
+def test_only_a_loopback_host_goes_without_a_token(host: str, ok: bool) -> None:
+    """'127.example.com' passed as loopback (a prefix test) while the server's own test refused it."""
+    from walkmon.live.config import ServeSettings
+
+    if ok:
+        ServeSettings(host=host)
+    else:
+        with pytest.raises(ValueError, match="not loopback"):
+            ServeSettings(host=host)

@@ -10,6 +10,7 @@ Every section is a frozen settings dataclass owned by the stage it configures (`
 from __future__ import annotations
 
 import dataclasses
+import ipaddress
 import math
 import tomllib
 import typing
@@ -191,6 +192,16 @@ class SessionSettings:
             raise ValueError(msg)
 
 
+def is_loopback(host: str) -> bool:
+    """True for localhost and loopback addresses (127.0.0.0/8, ::1), the dashboard's and its config's one test."""
+    if host.lower() in ("localhost", "localhost."):
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
 @dataclass(frozen=True, slots=True)
 class ServeSettings:
     """The local dashboard (``walkmon serve``; with ``enabled``, ``walkmon live`` also serves it in a thread)."""
@@ -209,8 +220,7 @@ class ServeSettings:
         if self.token and len(self.token) < 12:
             msg = "serve.token must have at least 12 characters"
             raise ValueError(msg)
-        loopback = self.host.lower() in ("localhost", "::1", "[::1]") or self.host.startswith("127.")
-        if not loopback and not self.token:
+        if not is_loopback(self.host) and not self.token:  # '127.example.com' is no loopback (user review)
             msg = f"serve.host = {self.host!r} is not loopback: set serve.token too (requests without it get 401)"
             raise ValueError(msg)
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import hmac
-import ipaddress
 import logging
 import math
 import time
@@ -31,6 +30,7 @@ from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from walkmon.errors import InvalidInputError
+from walkmon.live.config import is_loopback
 from walkmon.live.session_log import MAX_SESSION_ID
 from walkmon.serve.store import Store
 from walkmon.views import svg, words
@@ -45,16 +45,6 @@ COOKIE = "walkmon_token"
 CSP = ("default-src 'self'; script-src 'self'; style-src 'self' 'unsafe-inline'; img-src 'self' data:; "
        "connect-src 'self'; form-action 'self'; frame-ancestors 'none'; base-uri 'none'")
 _LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1", "[::1]"}
-
-
-def is_loopback(host: str) -> bool:
-    """True for localhost and loopback addresses (127.0.0.0/8, ::1)."""
-    if host.lower() in ("localhost", "localhost."):
-        return True
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return False
 
 
 def _host_only(header: str) -> str:
