@@ -14,7 +14,8 @@ onto it, and the samples of one read are spread over their interval (:mod:`walkm
 dropped silently: when the consumer falls behind and the queue is full, the oldest samples are dropped, counted,
 and the next :class:`ImuBatch` carries ``overflow=True`` and the count. A device that goes away (unplugged,
 closed) makes :meth:`SerialImu.read` raise :class:`~walkmon.errors.SourceDisconnected` once the samples read
-before it are consumed; the pipeline reconnects (see :func:`reconnect_delays_s`).
+before it are consumed; the live pipeline then reopens the port with backoff (a fresh :class:`SerialImu`: a
+reader runs once; :func:`reconnect_delays_s` is such a backoff for other callers).
 """
 
 from __future__ import annotations

@@ -182,18 +182,24 @@ def open_imu(url: str, camera: Any = None) -> ImuSource:
 
 class _SerialImuSource:
     """Adapts :class:`walkmon.drivers.serial_imu.SerialImu` (start/read batches/close) to the
-    :class:`~walkmon.drivers.imu_types.ImuSource` contract (open/read/close)."""
+    :class:`~walkmon.drivers.imu_types.ImuSource` contract (open/read/close). Reconnectable: each ``open()`` after
+    the first starts a fresh reader on the same port (a device unplugged and plugged back, its udev name the same;
+    the live pipeline retries with backoff)."""
 
-    reconnectable = False
+    reconnectable = True
     live = True
     host_clock = True  # the serial reader's samples: on the host's monotonic clock (drivers/imu_clock.py)
 
     def __init__(self, url: str, imu: Any) -> None:
         self.url = url
         self._imu = imu
+        self._opened = False
 
     def open(self) -> None:
+        if self._opened:  # a reader runs once: a new one for the port (its parser, clock and counts afresh)
+            self._imu = type(self._imu)(self._imu.settings)
         self._imu.start()
+        self._opened = True
 
     def read(self) -> ImuBatch:
         """An ``ImuBatch`` (samples + overflow flag); SourceDisconnected when the device went away."""

@@ -3,6 +3,7 @@ its real rate into the master; the driver reads the slave through pyserial in it
 
 from __future__ import annotations
 
+import contextlib
 import os
 import threading
 import time
@@ -265,3 +266,65 @@ def test_live_session_follows_a_csv_imu_whose_clock_restarts(pty_pair, tmp_path,
     after = [f for t, f in fused if t > 3.5]
     assert len(after) > 40 and sum(after) / len(after) > 0.9  # fused after the reboot too
     assert '"clock_restarts": 1' in meta
+
+
+def test_live_session_reopens_a_serial_imu_unplugged_and_plugged_back(tmp_path, capsys) -> None:  # noqa: ANN001
+    """User review: an unplugged serial IMU was never reopened ('continuing without IMU'), though its udev name
+    comes back with the device. Here the name is a link to a pseudo-terminal that closes 2 s in (unplugged) and to
+    a new one 1 s later (plugged back): the session fuses again after it."""
+    import sqlite3
+
+    from walkmon.commands.cli import main
+
+    link = tmp_path / "walkmon-imu"
+    stop = threading.Event()
+    opened: list[int] = []
+
+    def device(seconds: float) -> None:  # one plugging-in of the device: a pty that streams CSV without t
+        master, slave = pty.openpty()
+        opened.append(slave)
+        tmp = tmp_path / "next"
+        tmp.symlink_to(os.ttyname(slave))
+        tmp.replace(link)
+        t0 = time.monotonic()
+        while not stop.is_set() and time.monotonic() - t0 < seconds:
+            try:
+                os.write(master, b"0.01,0,0,0.1,-9.81,0\n")
+            except OSError:
+                break
+            stop.wait(0.01)
+        os.close(master)
+
+    def plug() -> None:
+        device(2.0)
+        if not stop.wait(1.0):
+            device(60.0)
+
+    try:
+        master0, slave0 = pty.openpty()  # (a pty must exist to name before the session starts)
+        os.close(master0)
+        os.close(slave0)
+    except OSError:
+        pytest.skip("no pseudo-terminals here")
+    feeder = threading.Thread(target=plug, daemon=True)
+    feeder.start()
+    while not link.exists():
+        time.sleep(0.01)
+    try:
+        rc = main(["live", "--camera", "sim:stand:2,normal:4?realtime=1&width=160&height=120",
+                   "--imu", f"serial:{link}?protocol=csv", "--data-dir", str(tmp_path), "--status", "none",
+                   "--duration", "6"])
+    finally:
+        stop.set()
+        feeder.join(3.0)
+        for fd in opened:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+    out = capsys.readouterr().out
+    assert rc == 0
+    assert "reconnected 1 time" in out
+    conn = sqlite3.connect(tmp_path / "walkmon.sqlite")
+    fused = conn.execute("SELECT t_s, fused FROM frames").fetchall()
+    conn.close()
+    late = [f for t, f in fused if t > 4.5]
+    assert len(late) > 20 and sum(late) / len(late) > 0.9  # fused again once the device is back

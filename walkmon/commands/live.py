@@ -298,7 +298,9 @@ def imu_stream_line(stream: dict[str, int] | None, imu_samples: int) -> str:
     bad = stream.get("bad_checksums", 0)
     skipped = stream.get("skipped_bytes", 0)
     restarts = stream.get("clock_restarts", 0)
+    reconnects = stream.get("reconnects", 0)
     parts = [f"{bad} bad packets or lines"] if bad else []
+    parts += [f"reconnected {reconnects} time(s)"] if reconnects else []
     parts += [f"{skipped} bytes skipped"] if skipped else []
     parts += [f"the device clock restarted {restarts} time(s), followed"] if restarts else []
     if imu_samples == 0 and (bad or skipped):

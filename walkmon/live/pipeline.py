@@ -29,6 +29,7 @@
 from __future__ import annotations
 
 import collections
+import contextlib
 import dataclasses
 import logging
 import math
@@ -347,6 +348,7 @@ class LivePipeline:
         self.imu_check = ImuPlausibility()
         self._parser_stats: ParserStats | None = None
         self._imu_shift_s = 0.0  # subtracted from the IMU's times: onto the frames' clock (_bridge_clocks)
+        self._imu_reconnects = 0
         self._bridged = False
         self._warned_no_samples = False
         self._imu_rejected_since_log = 0
@@ -430,6 +432,27 @@ class LivePipeline:
             return True
         return False
 
+    def _reconnect_imu(self) -> bool:
+        """Reopen a reconnectable IMU (a serial device unplugged) with the camera's backoff, until it opens or the
+        session stops (user review: an unplugged serial IMU was never reopened; under systemd the process ran on
+        camera-only for good). The frames meanwhile are camera-only (the fusion's IMU gap)."""
+        assert self.imu is not None
+        s = self.settings
+        backoff = s.reconnect_initial_s
+        with contextlib.suppress(Exception):
+            self.imu.close()
+        while not self._stop.wait(backoff):
+            try:
+                self.imu.open()
+            except SourceError as exc:
+                backoff = min(backoff * 2, s.reconnect_max_s)
+                _log.debug("IMU reconnect failed (%s); next try in %.1f s", exc, backoff)
+                continue
+            self._imu_reconnects += 1
+            _log.warning("IMU %s: reconnected", getattr(self.imu, "url", ""))
+            return True
+        return False
+
     def _imu_reader(self) -> None:
         try:
             self._imu_reader_loop()
@@ -445,8 +468,13 @@ class LivePipeline:
                 except SourceTimeout:
                     continue
                 except SourceDisconnected as exc:
-                    _log.warning("IMU: %s; continuing without IMU", exc)
-                    return
+                    if not getattr(self.imu, "reconnectable", False):
+                        _log.warning("IMU: %s; continuing without IMU", exc)
+                        return
+                    _log.warning("IMU: %s; camera-only until it is back", exc)
+                    if not self._reconnect_imu():
+                        return
+                    continue
                 if batch.parser_stats is not None:
                     self._parser_stats = st = batch.parser_stats  # the parser's totals so far
                     if not self._warned_no_samples and st.samples == 0 and st.skipped_bytes + st.bad_checksums > 1000:
@@ -808,4 +836,5 @@ class LivePipeline:
             return None
         out = {} if self._parser_stats is None else dataclasses.asdict(self._parser_stats)
         out["clock_restarts"] = out.get("clock_restarts", 0) + self.imu_check.clock_restarts
+        out["reconnects"] = self._imu_reconnects
         return out
