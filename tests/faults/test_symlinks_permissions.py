@@ -289,3 +289,19 @@ def test_service_command_runs_under_the_units_umask(tmp_path: Path) -> None:
     assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
     assert (data.stat().st_mode & 0o777) == 0o700
     assert all((p.stat().st_mode & 0o777) == 0o600 for p in data.iterdir())
+
+
+def test_a_hook_gets_no_empty_library_path_entry(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """OpenCV's import leaves LD_LIBRARY_PATH ending in ':' (an empty entry: the loader then searches the current
+    folder); hooks inherited it (user review)."""
+    from walkmon.live.alerts import AlertEvent
+    from walkmon.live.sinks import AlertSinks, SinkSettings
+
+    monkeypatch.setenv("LD_LIBRARY_PATH", "/opt/lib64::/usr/lib:")
+    seen = tmp_path / "env"
+    hook = ("sh", "-c", f"cat >/dev/null; printf %s \"$LD_LIBRARY_PATH\" > {seen}")
+    sinks = AlertSinks(SinkSettings(terminal=False, sound=False, hook_command=hook, hook_timeout_s=5.0))
+    sinks.deliver([AlertEvent(t_s=1.0, kind="bent_forward", state="raised", value=20.0, threshold=15.0,
+                              message="test")])
+    sinks.close(wait_s=5.0)
+    assert seen.read_text() == "/opt/lib64:/usr/lib"

@@ -152,6 +152,20 @@ def _kill_group(proc: subprocess.Popen[bytes]) -> None:
         _log.error("alert child pid %d did not die after SIGKILL", proc.pid)
 
 
+def _child_env() -> dict[str, str]:
+    """The environment of a hook or player: ours, with no empty entry in LD_LIBRARY_PATH (OpenCV's import leaves
+    one, 'lib64:', and an empty entry makes the loader search the current folder; user review)."""
+    env = dict(os.environ)
+    paths = env.get("LD_LIBRARY_PATH")
+    if paths is not None:
+        kept = [p for p in paths.split(os.pathsep) if p]
+        if kept:
+            env["LD_LIBRARY_PATH"] = os.pathsep.join(kept)
+        else:
+            del env["LD_LIBRARY_PATH"]
+    return env
+
+
 def _group_alive(pgid: int) -> bool:
     """Some process of the group ``pgid`` is still running."""
     try:
@@ -244,6 +258,7 @@ class AlertSinks:
                 stdout=subprocess.DEVNULL,
                 stderr=subprocess.DEVNULL,
                 start_new_session=True,  # its own process group: the timeout kills the hook's children too
+                env=_child_env(),
             )
         except OSError as exc:
             _log.warning("alert %s %s failed to start: %s", what, argv[0], exc)
