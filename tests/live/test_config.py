@@ -103,7 +103,7 @@ def test_alert_sinks_that_cannot_work_fail_the_check_and_the_start(tmp_path: Pat
     cfg.chmod(0o600)
     assert main(["config", "--check", str(cfg)]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and match in err
+    assert len(err.splitlines()) == 1 and match in err and str(cfg) in err  # the file named, as read_config does
     assert main(["live", "--config", str(cfg), "--camera", "sim:normal:1?width=64&height=48&realtime=0",
                  "--data-dir", str(tmp_path / "data"), "--status", "none"]) == 2
     assert match in capsys.readouterr().err

@@ -8,6 +8,8 @@ import sys
 from importlib import resources
 from typing import Any
 
+from walkmon.errors import WalkmonError
+
 NAME = "config"
 HELP = "print the documented example config (--example) or the defaults (--defaults), or check a config file"
 
@@ -33,7 +35,12 @@ def run(args: argparse.Namespace) -> int:
     elif args.defaults:
         sys.stdout.write(config_to_toml(DEFAULT_CONFIG))
     else:
-        check_sources(read_config(args.check))
+        cfg = read_config(args.check)
+        try:
+            check_sources(cfg)
+        except WalkmonError as exc:  # named with the file it came from, as read_config's own errors are
+            msg = f"{args.check}: {exc}"
+            raise type(exc)(msg) from None
         sys.stdout.write(f"{args.check}: ok\n")
     return 0
 
