@@ -225,6 +225,10 @@ def test_what_a_finished_hook_left_running_is_killed(tmp_path: Path, when: str) 
         if when == "close":
             time.sleep(0.3)
             assert _alive(child)  # the hook has exited, its child runs on until the session ends
+            hook_pid = sinks._children[0][0].pid
+            # the hook is held unreaped meanwhile: its id, its group's, cannot be reused by an unrelated process
+            # that the group's killing would then hit (review: one was, when ids of reaped hooks were killed)
+            assert Path(f"/proc/{hook_pid}/stat").read_text().split()[2] == "Z"
             sinks.close()
         while time.monotonic() - t0 < 10 and _alive(child):
             time.sleep(0.05)

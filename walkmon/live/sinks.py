@@ -138,18 +138,15 @@ def beep_wav_bytes(freq_hz: float = 880.0, duration_s: float = 0.3, rate_hz: int
     return buf.getvalue()
 
 
-def _kill_group(proc: subprocess.Popen[bytes]) -> None:
-    """SIGKILL the child's process group (the hook and anything it started), then reap it."""
+def _running(proc: subprocess.Popen[bytes]) -> bool:
+    """The child has not exited yet; an exited one is left unreaped (waitid WNOWAIT), so its process id, its group's
+    id, cannot be reused by another process before the group is killed (see AlertSinks._finish)."""
+    if proc.returncode is not None:
+        return False
     try:
-        os.killpg(proc.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
-    except OSError:
-        proc.kill()
-    try:
-        proc.wait(timeout=2)
-    except subprocess.TimeoutExpired:
-        _log.error("alert child pid %d did not die after SIGKILL", proc.pid)
+        return os.waitid(os.P_PID, proc.pid, os.WEXITED | os.WNOHANG | os.WNOWAIT) is None
+    except ChildProcessError:
+        return False
 
 
 def _child_env() -> dict[str, str]:
@@ -164,15 +161,6 @@ def _child_env() -> dict[str, str]:
         else:
             del env["LD_LIBRARY_PATH"]
     return env
-
-
-def _group_alive(pgid: int) -> bool:
-    """Some process of the group ``pgid`` is still running."""
-    try:
-        os.killpg(pgid, 0)
-    except OSError:
-        return False
-    return True
 
 
 def _feed(proc: subprocess.Popen[bytes], data: bytes, what: str, program: str) -> None:
@@ -199,7 +187,7 @@ class AlertSinks:
         if settings.apprise_urls:
             self._apprise = _AppriseWorker.create(settings.apprise_urls, settings.hook_timeout_s)
         self._children: list[tuple[subprocess.Popen[bytes], float, str]] = []
-        self._groups: list[int] = []  # the process groups of every hook and player started
+        self._lock = threading.Lock()  # _finish runs from the timers and the loop
         self._timers: list[threading.Timer] = []
         self._tmpdir: tempfile.TemporaryDirectory[str] | None = None
         self._sound_argv: list[str] | None = None
@@ -264,9 +252,9 @@ class AlertSinks:
             _log.warning("alert %s %s failed to start: %s", what, argv[0], exc)
             return
         self._children.append((proc, time.monotonic(), what))
-        self._groups.append(proc.pid)  # its process group: the hook's own id (start_new_session)
-        # killed on time even when no further alert (and so no _reap) comes
-        timer = threading.Timer(self.settings.hook_timeout_s, self._expire, (proc, what))
+        # its group (start_new_session: the hook's own id) is killed on time even when no further alert (and so
+        # no _reap) comes
+        timer = threading.Timer(self.settings.hook_timeout_s, self._finish, (proc, what))
         timer.daemon = True
         timer.start()
         self._timers.append(timer)
@@ -276,52 +264,48 @@ class AlertSinks:
             threading.Thread(target=_feed, args=(proc, stdin_bytes, what, argv[0]), name="walkmon-hook-input",
                              daemon=True).start()
 
-    def _expire(self, proc: subprocess.Popen[bytes], what: str) -> None:
-        if proc.poll() is None:
-            _log.warning("alert %s (pid %d) still running after %g s: killed", what, proc.pid,
-                         self.settings.hook_timeout_s)
-            _kill_group(proc)
-        elif _group_alive(proc.pid):
-            # the hook exited and left processes behind ('sleep 300 &'): they go with it at its timeout, as the
-            # README says of every process a hook started (user review: they lived on after the session)
-            _log.warning("alert %s (pid %d) left processes running after %g s: killed", what, proc.pid,
-                         self.settings.hook_timeout_s)
-            _kill_group(proc)
-
-    def _reap(self) -> None:
-        now = time.monotonic()
-        alive = []
-        self._timers = [t for t in self._timers if t.is_alive()]
-        for proc, started, what in self._children:
-            rc = proc.poll()
-            if rc is None and now - started > self.settings.hook_timeout_s:
+    def _finish(self, proc: subprocess.Popen[bytes], what: str) -> None:
+        """At its timeout (or the session's close): kill the child's process group, whatever runs in it (the hook
+        itself if still running, or what it left behind, 'sleep 300 &', which outlived the session: user review),
+        then reap the child. The child stays unreaped until here, so the group id cannot belong to anybody else
+        (killing groups by remembered ids did hit an unrelated process that reused one: review)."""
+        with self._lock:
+            if proc.returncode is not None:
+                return
+            if _running(proc):
                 _log.warning("alert %s (pid %d) still running after %g s: killed", what, proc.pid,
                              self.settings.hook_timeout_s)
-                _kill_group(proc)
-            elif rc is None:
-                alive.append((proc, started, what))
-            elif rc != 0:
+            with contextlib.suppress(OSError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            try:
+                rc = proc.wait(timeout=2)
+            except subprocess.TimeoutExpired:
+                _log.error("alert child pid %d did not die after SIGKILL", proc.pid)
+                return
+            if rc not in (0, -signal.SIGKILL):
                 _log.warning("alert %s exited with status %d", what, rc)
-        self._children = alive
+
+    def _reap(self) -> None:
+        """Finish the children past their timeout (the others, even when exited, wait for it: see _finish)."""
+        now = time.monotonic()
+        self._timers = [t for t in self._timers if t.is_alive()]
+        due = [(p, w) for p, started, w in self._children if now - started > self.settings.hook_timeout_s]
+        for proc, what in due:
+            self._finish(proc, what)
+        self._children = [c for c in self._children if c[0].returncode is None]
 
     def close(self, wait_s: float = 2.0) -> None:
-        """Wait briefly for running hooks/players, kill the rest, remove the generated sound."""
+        """Wait briefly for running hooks/players, then kill every child's group (the stragglers and what finished
+        hooks left behind), remove the generated sound."""
         deadline = time.monotonic() + wait_s
-        for proc, _, _ in self._children:
-            try:
-                proc.wait(timeout=max(0.0, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                _kill_group(proc)
+        while any(_running(p) for p, _, _ in self._children) and time.monotonic() < deadline:
+            time.sleep(0.01)
         for timer in self._timers:
             timer.cancel()
         self._timers = []
-        self._reap()
+        for proc, _, what in self._children:
+            self._finish(proc, what)
         self._children = []
-        for pgid in self._groups:  # what the hooks left running dies with the session
-            if _group_alive(pgid):
-                with contextlib.suppress(OSError):
-                    os.killpg(pgid, signal.SIGKILL)
-        self._groups = []
         if self._apprise is not None:
             self._apprise.close()
             self._apprise = None
