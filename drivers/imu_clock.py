@@ -32,12 +32,35 @@ _EPS_S = 1e-6
 class DeviceClock:
     """Device time (s) -> host time (s) of one stream (see the module docstring)."""
 
-    def __init__(self, window_s: float = 30.0, restart_s: float = 1.0, jump_s: float = 60.0) -> None:
-        self.window_s, self.restart_s, self.jump_s = window_s, restart_s, jump_s
+    def __init__(self, window_s: float = 30.0, restart_s: float = 1.0, jump_s: float = 60.0,
+                 ahead_s: float = 0.02) -> None:
+        self.window_s, self.restart_s, self.jump_s, self.ahead_s = window_s, restart_s, jump_s, ahead_s
         self.restarts = 0
         self._delays: collections.deque[tuple[float, float]] = collections.deque()  # (arrival, offset), offset rising
         self._last_device: float | None = None
         self._last_out = -math.inf
+        self._ahead_run = 0
+
+    def ahead(self, device_t_s: float, arrival_s: float) -> bool:
+        """True for a sample the current mapping would place more than ``ahead_s`` after its own arrival: a time
+        corrupted forward by less than ``restart_s`` (its delay, the smallest ever seen, would have become the
+        mapping's and placed every sample up to that much early for ``window_s``: review). Refuse it; the
+        :data:`~walkmon.drivers.imu_checks.CLOCK_RESTART_SAMPLES`-th in a row is a clock set forward: a new
+        mapping from it (``restarts``)."""
+        from walkmon.drivers.imu_checks import CLOCK_RESTART_SAMPLES  # noqa: PLC0415
+
+        if not self._delays or device_t_s + self._delays[0][1] <= arrival_s + self.ahead_s:
+            self._ahead_run = 0
+            return False
+        self._ahead_run += 1
+        if self._ahead_run < CLOCK_RESTART_SAMPLES:
+            return True
+        self._delays.clear()
+        self.restarts += 1
+        self._last_out = -math.inf
+        self._last_device = None
+        self._ahead_run = 0
+        return False
 
     def host_times(self, device_t_s: list[float], arrival_s: float) -> list[float]:
         """The host times of the samples of one read, timed ``device_t_s`` by the device, that arrived at

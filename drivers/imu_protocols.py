@@ -337,7 +337,15 @@ class CsvLineParser:
         gyro = (values[0] * g, values[1] * g, values[2] * g)
         accel = (values[3] * a, values[4] * a, values[5] * a)
         # no checksum: a corrupted line is caught here, its time judged on the device's clock (a run of samples
-        # behind it is a restarted clock: walkmon.drivers.imu_checks)
+        # behind it is a restarted clock: walkmon.drivers.imu_checks), and against its arrival (a time corrupted
+        # forward: drivers/imu_clock.py)
+        if device:
+            restarts = self._clock.restarts
+            ahead = self._clock.ahead(t_s, self._arrival)
+            self._count(clock_restarts=self._clock.restarts - restarts)
+            if ahead:
+                self._count(good_packets=1, implausible_samples=1)
+                return None
         if not self._plausible.check(t_s, gyro, accel):
             self._count(good_packets=1, implausible_samples=1)
             return None
