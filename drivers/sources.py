@@ -24,13 +24,14 @@ The factory only parses and constructs: nothing is opened (and no hardware probe
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import logging
 from collections.abc import Callable
 from typing import Any
 from urllib.parse import parse_qsl
 
-from walkmon.drivers.imu_types import ImuBatch, ImuSource
+from walkmon.drivers.imu_types import ImuBatch, ImuSource, ParserStats
 from walkmon.errors import ConfigError
 
 __all__ = ["CAMERA_SCHEMES", "IMU_SCHEMES", "open_camera", "open_imu", "parse_source_url"]
@@ -194,17 +195,28 @@ class _SerialImuSource:
         self.url = url
         self._imu = imu
         self._opened = False
+        self._before: ParserStats | None = None  # the counts of the readers before this one (reconnections)
 
     def open(self) -> None:
-        if self._opened:  # a reader runs once: a new one for the port (its parser, clock and counts afresh)
+        if self._opened:  # a reader runs once: a new one for the port (its parser and clock afresh)
+            self._before = _sum_stats(self._before, self._imu.parser_stats)
             self._imu = type(self._imu)(self._imu.settings)
         self._imu.start()
         self._opened = True
 
     def read(self) -> ImuBatch:
-        """An ``ImuBatch`` (samples + overflow flag); SourceDisconnected when the device went away."""
+        """An ``ImuBatch`` (samples + overflow flag; the parser's counts over the session, every reconnection's
+        reader included: review); SourceDisconnected when the device went away."""
         batch: ImuBatch = self._imu.read(0.2)
+        if self._before is not None:
+            batch = dataclasses.replace(batch, parser_stats=_sum_stats(self._before, batch.parser_stats))
         return batch
 
     def close(self) -> None:
         self._imu.close()
+
+
+def _sum_stats(a: ParserStats | None, b: ParserStats | None) -> ParserStats | None:
+    if a is None or b is None:
+        return a or b
+    return ParserStats(**{f.name: getattr(a, f.name) + getattr(b, f.name) for f in dataclasses.fields(ParserStats)})

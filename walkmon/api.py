@@ -666,9 +666,31 @@ def _imu_coverage(imu_t_s: NDArray[np.float64], offset_s: float, frame_t_s: NDAr
 
 
 #: An IMU whose rotation rates match the video's this poorly (correlation of their magnitudes at the best clock
-#: offset within 0.5 s of the one in use) while the video turns this fast (RMS, deg/s) is not this video's IMU.
+#: offset within 0.5 s of the one in use) while the video turns this fast (RMS over 0.5 s steps, deg/s, where the
+#: IMU covers it) is not this video's IMU.
 MIN_RATE_CORRELATION = 0.4
-MIN_VIDEO_RATE_DEG_S = 3.0
+MIN_VIDEO_RATE_DEG_S = 1.5
+
+
+def _video_turn_rate_deg_s(ft: NDArray[np.float64], visual: NDArray[np.float64], ok: NDArray[np.bool_],
+                           span: tuple[float, float]) -> float:
+    """RMS of the video's rotation rate over steps of about 0.5 s inside ``span`` (ok frames at both ends). Over
+    0.5 s a still camera's frame-to-frame jitter averages out (0.05 deg a frame read 3.7 deg/s frame to frame:
+    review) while a walk's sway of a few degrees at about 1 Hz stays."""
+    from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
+
+    if len(ft) < 3:
+        return 0.0
+    k = max(1, round(0.5 / max(float(np.median(np.diff(ft))), 1e-6)))
+    R = rotation_from_angles_deg(visual[:, 0], visual[:, 1], visual[:, 2])
+    i = np.arange(len(ft) - k)
+    use = ok[i] & ok[i + k] & (ft[i] >= span[0]) & (ft[i + k] <= span[1])
+    if not use.any():
+        return 0.0
+    i = i[use]
+    rel = np.einsum("nji,njk->nik", R[i], R[i + k])
+    ang = np.degrees(np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)))
+    return float(np.sqrt(np.mean((ang / (ft[i + k] - ft[i])) ** 2)))
 
 
 def _same_recording(imu: Any, ft: NDArray[np.float64], visual: NDArray[np.float64], ok: NDArray[np.bool_],
@@ -676,10 +698,9 @@ def _same_recording(imu: Any, ft: NDArray[np.float64], visual: NDArray[np.float6
     """Refuse an IMU that plainly belongs to another recording (user review: a drone's GoPro telemetry was fused
     into a simulated walk, exit 0, the walk read as no walking at all). A video's own IMU follows its rotation
     rates (simulated walks, the GoPro clip: correlation 0.99); that telemetry on 7-20 s walks: 0.10-0.13, the
-    videos turning at 7-13 deg/s RMS. A video that hardly turns has nothing to compare and passes. With
-    ``offset_s`` given the rates are compared about that offset."""
-    from walkmon.consts import rotation_from_angles_deg  # noqa: PLC0415
-    from walkmon.imu.extrinsics import visual_rates_rad_s  # noqa: PLC0415
+    videos turning at 2.6-6.1 deg/s over 0.5 s steps. A video that hardly turns has nothing to compare and passes
+    (its own IMU correlates at about 0.1 there too; a still camera's jitter of 0.15 deg a frame reads 0.7 deg/s). With ``offset_s`` given the rates are compared about that
+    offset."""
     from walkmon.imu.recordings import extrinsics_from_angles  # noqa: PLC0415
 
     if offset_s:
@@ -689,8 +710,8 @@ def _same_recording(imu: Any, ft: NDArray[np.float64], visual: NDArray[np.float6
             return
     if ext is None or ext.n_intervals < 30 or ext.correlation >= MIN_RATE_CORRELATION:
         return
-    _, _, w = visual_rates_rad_s(ft, rotation_from_angles_deg(visual[:, 0], visual[:, 1], visual[:, 2]), ok)
-    rate = float(np.degrees(np.sqrt(np.mean(np.sum(w**2, axis=1))))) if len(w) else 0.0
+    span = (float(imu.t_s[0]) + (offset_s or 0.0), float(imu.t_s[-1]) + (offset_s or 0.0))
+    rate = _video_turn_rate_deg_s(ft, visual, ok, span)
     if rate > MIN_VIDEO_RATE_DEG_S:
         msg = (f"{name}: the IMU's rotation does not follow the video's (the video turns at {rate:.0f} deg/s RMS; "
                f"correlation of the rates {ext.correlation:.2f} at the best clock offset within 0.5 s of "

@@ -4,6 +4,7 @@ its real rate into the master; the driver reads the slave through pyserial in it
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import threading
 import time
@@ -280,25 +281,27 @@ def test_live_session_reopens_a_serial_imu_unplugged_and_plugged_back(tmp_path, 
     stop = threading.Event()
     opened: list[int] = []
 
-    def device(seconds: float) -> None:  # one plugging-in of the device: a pty that streams CSV without t
+    def device(seconds: float, garbage: bool) -> None:  # one plugging-in of the device: a pty streaming CSV
         master, slave = pty.openpty()
         opened.append(slave)
         tmp = tmp_path / "next"
         tmp.symlink_to(os.ttyname(slave))
         tmp.replace(link)
         t0 = time.monotonic()
+        i = 0
         while not stop.is_set() and time.monotonic() - t0 < seconds:
             try:
-                os.write(master, b"0.01,0,0,0.1,-9.81,0\n")
+                os.write(master, b"garbage,line\n" if garbage and i % 10 == 9 else b"0.01,0,0,0.1,-9.81,0\n")
             except OSError:
                 break
+            i += 1
             stop.wait(0.01)
         os.close(master)
 
     def plug() -> None:
-        device(2.0)
+        device(2.0, garbage=True)  # every 10th line broken before the unplugging
         if not stop.wait(1.0):
-            device(60.0)
+            device(60.0, garbage=False)
 
     try:
         master0, slave0 = pty.openpty()  # (a pty must exist to name before the session starts)
@@ -320,11 +323,15 @@ def test_live_session_reopens_a_serial_imu_unplugged_and_plugged_back(tmp_path, 
         for fd in opened:
             with contextlib.suppress(OSError):
                 os.close(fd)
-    out = capsys.readouterr().out
-    assert rc == 0
+    cap = capsys.readouterr()
+    out = cap.out
+    assert rc == 0, cap.err
     assert "reconnected 1 time" in out
     conn = sqlite3.connect(tmp_path / "walkmon.sqlite")
     fused = conn.execute("SELECT t_s, fused FROM frames").fetchall()
+    meta = json.loads(conn.execute("SELECT meta_json FROM sessions").fetchone()[0])
     conn.close()
     late = [f for t, f in fused if t > 4.5]
     assert len(late) > 20 and sum(late) / len(late) > 0.9  # fused again once the device is back
+    # the first reader's counts survive the reconnection (review: the new reader's replaced them)
+    assert meta["imu_stream"]["bad_checksums"] >= 10 and meta["imu_stream"]["reconnects"] == 1

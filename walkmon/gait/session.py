@@ -1529,7 +1529,7 @@ def timeline_rows(
     span = seg.timeline_t_s
     if len(span):
         hop = float(span[1] - span[0]) if len(span) > 1 else step_s
-        act = np.where((grid < span[0] - hop) | (grid > span[-1] + hop), "unknown", act)
+        act = np.where((grid < span[0] - hop / 2) | (grid > span[-1] + hop / 2), "unknown", act)  # as activity_s
     no_data = seg.in_gap(grid)
     bound = np.zeros(t.size) if unc is None else np.max(np.asarray(unc.deg, dtype=float), axis=1)
     rows = []

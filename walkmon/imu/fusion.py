@@ -578,13 +578,16 @@ def _vision_before_imu(
         return estimates
     _log.info("fusion: %d frames before the IMU's first sample carried by the vision alone", k0)
     first = estimates[k0]
-    out = []
-    for k in range(k0):
-        rel = Rv[k0].T @ Rv[k]  # frame k's axes in frame k0's
+    out: list[FusedEstimate] = []
+    rel = np.eye(3)
+    for k in range(k0 - 1, -1, -1):  # back from the first frame the IMU covers
+        r = Rv[k0].T @ Rv[k]  # frame k's axes in frame k0's
+        rel = r if np.all(np.isfinite(r)) else rel  # a frame the vision has no rotation for: held (review)
         down = rel.T @ first.gravity_down
         out.append(replace(first, t_s=float(ft[k]), rotation=first.rotation @ rel, gravity_down=down,
                            abs_angles_deg=gravity_angles_deg_from_gravity(down), visual_used=False,
                            visual_rejected=False))
+    out.reverse()
     out += estimates[k0:]
     R0 = out[0].rotation
     return [replace(e, rotation=R0.T @ e.rotation, angles_deg=angles_deg_from_rotation(R0.T @ e.rotation))
