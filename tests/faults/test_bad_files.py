@@ -316,11 +316,16 @@ def test_imu_covering_part_of_the_video_fuses_and_writes_valid_json(walk: Path, 
     import json
 
     out = tmp_path / "out"
-    res = cli("analyze", walk / "video.mp4", "--imu", walk / "imu.csv", "--imu-offset-s", "2.0", "--out", out,
-              "--no-progress")
+    imu = _imu_part(walk, tmp_path / "late.csv", lambda t: t >= 2.0)
+    res = cli("analyze", walk / "video.mp4", "--imu", imu, "--out", out, "--no-progress")
     assert res.rc == 0, res.err
     info = json.loads((out / "imu.json").read_text(), parse_constant=lambda c: pytest.fail(f"{c} in imu.json"))
-    assert 0.5 <= info["imu_coverage"] < 0.8  # 6 s video, IMU shifted by 2 s: 4/6 of it
+    assert 0.5 <= info["imu_coverage"] < 0.8  # 6 s video, the IMU from 2 s on: 4/6 of it
+    # the same IMU given a clock offset 2 s off: its rates do not follow the video's there (once fused all the
+    # same; now refused, naming the offset)
+    res = cli("analyze", walk / "video.mp4", "--imu", walk / "imu.csv", "--imu-offset-s", "2.0", "--out",
+              tmp_path / "o2", "--no-progress")
+    res.one_line_error("does not follow the video", "--imu-offset-s")
 
 
 @pytest.mark.parametrize("offset", ["nan", "inf", "1e999"])
@@ -463,7 +468,7 @@ def test_a_few_nan_rows_are_skipped_and_counted_not_the_whole_file_refused(tmp_p
     imu.write_text(f"t,{cols}ax,ay,az\n" + "".join(rows))
     res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
     assert res.rc == 0, res.err
-    assert f"1990 {'IMU' if gyro else 'accelerometer'} rows" in res.out  # 2000 less the 10 skipped
+    assert f"1990 {'IMU' if gyro else 'accelerometer'} samples" in res.out  # 2000 less the 10 skipped
     assert (tmp_path / "out" / "indicators.json").is_file()
 
 
