@@ -198,3 +198,16 @@ def test_analyze_writes_indicators_and_report(tmp_path: Path, capsys: pytest.Cap
     assert doc["cadence_spm"] == pytest.approx(sim.meta["segments"][0]["cadence_spm"], rel=0.03)
     assert doc["classification"]["label"] == "normal"
     assert "normal" in capsys.readouterr().out
+
+
+def test_timeline_seconds_are_drawn_where_they_are() -> None:
+    """User review: each timeline.csv second (its t the middle of [t - 0.5, t + 0.5)) was drawn as [t - 1, t]: half
+    a second early, the first band from -1 s and the last ending before the recording did."""
+    from walkmon.gait.report import timeline_from_columns
+    from walkmon.views.svg import timeline_svg
+
+    cols = {"t": [0.0, 1.0, 2.0, 3.0], "activity": ["standing", "standing", "walking", "walking"],
+            "label": ["", "", "normal", "normal"], "pitch": [0.0, 0.0, -1.0, -1.0], "roll": [0.0, 0.0, 0.0, 0.0]}
+    svg = str(timeline_svg(timeline_from_columns(cols)))
+    assert "standing: 0 s - 1.5 s" in svg and "normal: 1.5 s - 3.5 s" in svg
+    assert "-1 s" not in svg

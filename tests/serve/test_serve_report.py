@@ -73,12 +73,13 @@ def test_an_offline_report_says_where_its_timeline_comes_from(tmp_path: Path) ->
     tl = timeline_from_columns(cols)
     assert tl["hops"]["uncertainty"] == [0.0, 0.0, 12.5, 0.4]
     html = render_report(t, a, ind, timeline=tl, timeline_source="From timeline.csv.")
-    assert html.count("upright reference uncertain by up to") == 1 and "up to 12.5 deg, 2 s - 3 s" in html
+    # (the row at t = 3 s is the second [2.5, 3.5))
+    assert html.count("upright reference uncertain by up to") == 1 and "up to 12.5 deg, 2.5 s - 3.5 s" in html
     assert "grey: upright reference uncertain by more than 1 deg" in html
     # a certain second between two uncertain ones is not shaded: two bands (review)
     cols["ref_uncertainty_deg"] = [5.0, 0.0, 7.0, 0.0]
     html = render_report(t, a, ind, timeline=timeline_from_columns(cols), timeline_source="From timeline.csv.")
-    assert "up to 5.0 deg, 0 s - 1 s" in html and "up to 7.0 deg, 2 s - 3 s" in html
+    assert "up to 5.0 deg, 0.5 s - 1.5 s" in html and "up to 7.0 deg, 2.5 s - 3.5 s" in html
 
 
 @pytest.mark.parametrize(("since", "days"), [("30d", 30.0), ("2w", 14.0), ("12h", 0.5), ("7", 7.0)])

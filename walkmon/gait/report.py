@@ -332,7 +332,9 @@ def _kv_table(items: Mapping[str, Any]) -> str:
 
 def timeline_from_columns(cols: Mapping[str, Sequence[Any]], hop_s: float = 1.0) -> dict[str, Any]:
     """The gait analysis's timeline.csv (``t,activity,label,pitch,roll[,ref_uncertainty_deg]`` at 1 s) in the
-    timeline shape (the uncertainty as ``hops["uncertainty"]`` when the columns hold it)."""
+    timeline shape (the uncertainty as ``hops["uncertainty"]`` when the columns hold it). A row's ``t`` is the
+    middle of its second, [t - 0.5, t + 0.5); a hop's time is the end of its window, as the live monitor's are:
+    ``t + hop_s / 2`` (the figure drew each second half a second early, the first from -1 s: user review)."""
     activity = [str(v or "") for v in cols["activity"]]
     walking = [act == "walking" for act in activity]
 
@@ -343,7 +345,7 @@ def timeline_from_columns(cols: Mapping[str, Sequence[Any]], hop_s: float = 1.0)
             return None
         return f if math.isfinite(f) else None
 
-    hops = {"t_s": [float(v) for v in cols["t"]], "walking": walking, "activity": activity,
+    hops = {"t_s": [float(v) + hop_s / 2 for v in cols["t"]], "walking": walking, "activity": activity,
             "label": [str(v or "") for v in cols["label"]], "pitch": [num(v) for v in cols["pitch"]],
             "roll": [num(v) for v in cols["roll"]]}
     if "ref_uncertainty_deg" in cols:

@@ -249,6 +249,8 @@ class Store:
                 try:
                     doc = json.loads(js)
                     activity = doc.get("activity")
+                    if doc.get("source") == "analysis timeline":  # a timeline row's t is its second's middle;
+                        t = _f(t) + hop_s / 2  # a hop's is its window's end (gait.report.timeline_from_columns)
                     reasons = (doc.get("classification") or {}).get("reasons") or []
                     # a hop in which the camera measured nothing (a covered lens: LiveIndicatorStage.push_unmeasured)
                     unseen = isinstance(reasons, list) and bool(unmeasured_why(activity, reasons))

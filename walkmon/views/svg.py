@@ -49,7 +49,7 @@ def legend(tl: dict[str, Any]) -> list[tuple[str, str]]:
 def _fmt_t(t: float) -> str:
     if t >= 120:
         return f"{t / 60:.0f} min" if t % 60 == 0 else f"{t / 60:.1f} min"
-    return f"{t:.0f} s"
+    return f"{t:.0f} s" if abs(t - round(t)) < 0.05 else f"{t:.1f} s"
 
 
 def _ticks(lo: float, hi: float, n: int = 6) -> list[float]:
@@ -160,7 +160,9 @@ def timeline_svg(tl: dict[str, Any], *, width: int = 900, title: str = "Session 
     if not t:
         return Markup(f'<svg role="img" viewBox="0 0 {width} 60" width="100%"><title>{escape(title)}</title>'
                       f'<text x="10" y="30" fill="{_TEXT}">no hops logged</text></svg>')
-    xlim = (t[0] - hop_s, t[-1])
+    # a hop's time is the end of its window; a recording starts at 0 (its first timeline second, centred there,
+    # holds half a second)
+    xlim = (max(t[0] - hop_s, 0.0) if t[0] >= 0 else t[0] - hop_s, t[-1])
     pitch, roll = hops["pitch"], hops["roll"]
     fp, fr = _finite(pitch), _finite(roll)
     p_lim = (min(-lean - 5, *(fp or [0]), -5.0), max(5.0, *(fp or [0])))
@@ -178,7 +180,7 @@ def timeline_svg(tl: dict[str, Any], *, width: int = 900, title: str = "Session 
         walking = hops["walking"][i]
         label = hops["label"][i] if walking else ""
         state = label or hops["activity"][i] or "unknown"
-        t0 = ti - hop_s
+        t0 = max(ti - hop_s, xlim[0])
         if runs and runs[-1][2] == state and abs(runs[-1][1] - t0) < 1.5 * hop_s:
             runs[-1] = (runs[-1][0], ti, state)
         else:
