@@ -77,7 +77,7 @@ def test_session_values_are_the_hand_counts_of_its_hops(db: Path) -> None:
     assert [s["id"] for s in c.get("/api/sessions?person=Bob").json()] == [2]
     page = c.get("/sessions/1").text
     assert "50 min" not in page
-    assert ("0.8 min walked, 50 % upright (within the alert thresholds), 2 lean-forward alerts and 1 shoulder-down "
+    assert ("50 s walked, 50 % upright (within the alert thresholds), 2 lean-forward alerts and 1 shoulder-down "
             "alert") in page
     assert "Compared with" not in page  # Ann has no earlier session
 

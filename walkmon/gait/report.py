@@ -437,7 +437,7 @@ def _summary(tl: Mapping[str, Any], stats: Any, doc: Mapping[str, Any], base: Ma
         known = [(p, r) for w, p, r in zip(hops["walking"], hops["pitch"], hops["roll"], strict=True)
                  if w and p is not None and r is not None]
         upright = sum(1 for p, r in known if -p <= lean and abs(r) <= shoulder)
-        walking_s = float(doc.get("walking_s") or 0.0) or sum(hops["walking"]) * hop_s
+        walking_s = sum(hops["walking"]) * hop_s  # straight walking, as the history counts it
         alerts: dict[str, int] = {}
         for ev in tl.get("alerts", []):
             if ev["state"] == "raised":
@@ -450,7 +450,8 @@ def _summary(tl: Mapping[str, Any], stats: Any, doc: Mapping[str, Any], base: Ma
             cadence_spm=float(doc.get("cadence_spm") or math.nan),
             pitch_deg=float(np.mean(pitch)) if pitch else math.nan, roll_deg=math.nan, asymmetry=math.nan,
             alerts=alerts)
-    text = words.session_summary(stats)
+    bouts = doc.get("walking_s")  # an analysis's time in walking bouts (schema 2), shown beside it
+    text = words.session_summary(stats, in_bouts_s=float(bouts) if isinstance(bouts, int | float) else None)
     if base is not None:
         base_cadence = float(base.get("cadence_spm") or math.nan)
         base_pitch = _value(base, "pitch", "inclination_mean")

@@ -25,16 +25,27 @@ def alerts_phrase(alerts: Mapping[str, int]) -> str:
 
 
 def _minutes(seconds: float) -> str:
+    """'12 min', '1.5 min', or under a minute '17 s' ('0.0 min walked' for 2.5 s: user review)."""
+    if seconds < 59.5:
+        return f"{seconds:.0f} s"
     m = seconds / 60.0
     return f"{m:.0f} min" if m >= 10 else f"{m:.1f} min"
 
 
-def session_summary(s: SessionStats, baseline: SessionStats | DayStats | None = None, baseline_what: str = "") -> str:
+def session_summary(s: SessionStats, baseline: SessionStats | DayStats | None = None, baseline_what: str = "",
+                    *, in_bouts_s: float | None = None) -> str:
     """'12 min walked, 78 % upright (within the alert thresholds), 3 lean-forward alerts, cadence 104 steps/min.
-    Compared with ...'."""
-    if s.walking_s <= 0:
+    Compared with ...'. The walking time is the straight walking the history counts and the posture figures are
+    over (turns and stops left out); ``in_bouts_s``, an offline analysis's time in walking bouts (turns and short
+    stops included, its indicators' walking_s), is given beside it where longer (user review: the report said
+    '1.0 min walked' and the history 0.28 min for the same recording, unsaid why)."""
+    if s.walking_s <= 0 and not in_bouts_s:
         return (f"No walking detected in {_minutes(s.recorded_s)} recorded; {alerts_phrase(s.alerts)}.")
-    parts = [f"{_minutes(s.walking_s)} walked"]
+    walked = f"{_minutes(s.walking_s)} walked"
+    if in_bouts_s is not None and in_bouts_s > s.walking_s + s.hop_s:
+        walked = (f"{_minutes(s.walking_s)} of straight walking ({_minutes(in_bouts_s)} in walking bouts, turns and "
+                  f"stops included)")
+    parts = [walked]
     if math.isfinite(s.upright_pct):
         # the walking time whose posture stays within the alert thresholds: not the share labelled normal, which
         # the report's classification gives beside it (review: '56 % upright' beside 'normal over 51 %', unsaid)
