@@ -1228,3 +1228,31 @@ def test_a_ringing_peak_window_that_is_no_duration_is_refused(peak_s: float) -> 
 
     with pytest.raises(InvalidInputError, match="ringing_peak_s"):
         ActivitySettings(ringing_peak_s=peak_s)
+
+
+@pytest.mark.skipif(not (DATA / "broad").is_dir(), reason="shared real data not present")
+def test_status_agrees_with_the_bouts_reported(tmp_path) -> None:  # noqa: ANN001
+    """User review: BROAD trial 2 (hand-held, no walk) read 'status: no_gait' beside 3 walking bouts, 20 steps and
+    a cadence of 85.5 steps/min: the status followed the posture figures (unmeasured), not the bouts. Bouts found
+    are a gait rhythm found: 'ok', whatever their posture figures."""
+    import contextlib
+    import io
+    import json
+
+    from walkmon.commands.cli import main
+    from walkmon.tables import write_table
+
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(DATA / "broad" / "02_undisturbed_slow_rotation_B.hdf5", "r") as f:
+        rate = float(f.attrs["sampling_rate"])
+        acc, gyr = np.asarray(f["imu_acc"]), np.asarray(f["imu_gyr"])
+    t = np.arange(len(acc)) / rate
+    write_table(tmp_path / "imu.csv", {"t": t, "gx": gyr[:, 0], "gy": gyr[:, 1], "gz": gyr[:, 2],
+                                       "ax": acc[:, 0], "ay": acc[:, 1], "az": acc[:, 2]})
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["analyze", "--imu", str(tmp_path / "imu.csv"), "--out", str(tmp_path / "out")]) == 0
+    doc = json.loads((tmp_path / "out" / "indicators.json").read_text())
+    if doc["bouts"]:
+        assert doc["status"] == "ok" and doc["summary"]["n_steps"] > 0
+    else:
+        assert doc["status"] in ("no_gait", "too_short")

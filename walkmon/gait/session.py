@@ -986,8 +986,10 @@ def analyze_session(
         activity_s["unknown"] += max(0.0, float(seg.timeline_t_s[0] - hop / 2 - t[0])) + \
             max(0.0, float(t[-1] - seg.timeline_t_s[-1] - hop / 2))
     rows = timeline_rows(t, a, seg, seg_docs, ref_zero, unc=unc)
-    status = IndicatorStatus.OK if weighted and any(i.status is IndicatorStatus.OK for _, i in weighted) else (
-        IndicatorStatus.NO_GAIT if seg.bouts or t.size > 16 else IndicatorStatus.TOO_SHORT)
+    # walking bouts found are a gait rhythm found (their steps and cadence are reported): 'no_gait' beside 3 bouts,
+    # 20 steps and a cadence contradicted itself (user review); their posture figures may still be null
+    status = IndicatorStatus.OK if seg.bouts or any(i.status is IndicatorStatus.OK for _, i in weighted) else (
+        IndicatorStatus.NO_GAIT if t.size > 16 else IndicatorStatus.TOO_SHORT)
     session = {
         "upright_reference": {"source": ref_source, "pitch_deg": _num(ref_out[0]), "roll_deg": _num(ref_out[1]),
                               "frame": "gravity pitch/roll" if has_abs else "start-relative angles",
