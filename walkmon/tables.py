@@ -213,8 +213,28 @@ def imu_file_kind(path: str | Path) -> str:
     """'imu' for ``t,gx,gy,gz,ax,ay,az``; 'acc' for ``t,ax,ay,az`` without a gyroscope (issue 11). Bad rows are
     the reader's to skip and count: read strictly here, one NaN row refused the whole file before the reader
     that skips it was reached."""
-    cols = read_table(path, ACC_COLUMNS, skip_bad_rows=True)
-    return "imu" if all(c in cols for c in ("gx", "gy", "gz")) else "acc"
+    acc_rejected: Counter[str] = Counter()
+    cols = read_table(path, ACC_COLUMNS, skip_bad_rows=True, rejected=acc_rejected)
+    if all(c in cols for c in ("gx", "gy", "gz")):
+        return "imu"
+    # a gyroscope column with some empty cells (pandas writes NaN as nothing) was dropped as not numeric, and the
+    # whole file read as an accelerometer's (user review: 3 such rows cost yaw and turns for all 1115): the file is
+    # an IMU's when most of its rows have the gyroscope, the others the reader's to skip and count
+    n_rows = len(cols["t"]) + sum(acc_rejected.values())
+    if n_rows and _header_has(path, ("gx", "gy", "gz")):
+        imu = read_table(path, IMU_COLUMNS, skip_bad_rows=True)
+        if len(imu["t"]) >= 0.5 * n_rows:
+            return "imu"
+    return "acc"
+
+
+def _header_has(path: str | Path, names: Sequence[str]) -> bool:
+    """The CSV file's header names all of ``names``."""
+    from walkmon.safe_io import MAX_TABLE_BYTES, read_bounded  # noqa: PLC0415
+
+    text = read_bounded(path, MAX_TABLE_BYTES, "CSV table").decode("utf-8-sig", "replace")
+    first = next((ln for ln in text.splitlines() if ln.strip()), "")
+    return set(names) <= {c.strip() for c in next(csv.reader([first]), [])}
 
 
 def read_acc_csv(path: str | Path, *, units_out: list[str] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

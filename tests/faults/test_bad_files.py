@@ -472,6 +472,22 @@ def test_a_few_nan_rows_are_skipped_and_counted_not_the_whole_file_refused(tmp_p
     assert (tmp_path / "out" / "indicators.json").is_file()
 
 
+@pytest.mark.parametrize("n_empty", [3, 11])
+def test_empty_gyroscope_cells_skip_their_rows_not_the_gyroscope(tmp_path: Path, cli, n_empty: int) -> None:
+    """User review: a few empty gx/gy/gz cells (pandas writes NaN as nothing) made the file-kind check drop the
+    gyroscope columns as not numeric, and the whole file was analysed as an accelerometer's: no yaw, no turns for
+    every row, said only in a note. The rows are skipped and counted; the gyroscope stays."""
+    rows = _still_rows(2000, True)
+    for i in range(500, 500 + n_empty):
+        parts = rows[i].rstrip("\n").split(",")
+        rows[i] = ",".join([parts[0], "", "", "", *parts[4:]]) + "\n"
+    imu = tmp_path / "empty_cells.csv"
+    imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(rows))
+    res = cli("analyze", "--imu", imu, "--out", tmp_path / "out")
+    assert res.rc == 0, res.err
+    assert f"{2000 - n_empty} IMU samples" in res.out and "no gyroscope" not in res.out
+
+
 @pytest.mark.parametrize("gyro", [True, False], ids=["imu", "accelerometer only"])
 def test_a_clock_reset_mid_file_is_one_line_not_half_the_rows_dropped(tmp_path: Path, cli, gyro: bool) -> None:
     """The clock restarts from 0 at row 1000 (a logger restarted, two files joined): every later row is 'late'.
