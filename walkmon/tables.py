@@ -14,6 +14,7 @@ import io
 import json
 import logging
 import math
+import re
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -71,23 +72,24 @@ def read_table(
     if "\0" in text:
         msg = f"{p}: cannot read as CSV (contains NUL bytes)"
         raise InvalidInputError(msg)
-    try:
-        rows = list(csv.reader(io.StringIO(text, newline="")))
-    except csv.Error as exc:
-        msg = f"{p}: cannot read as CSV ({exc})"
-        raise InvalidInputError(msg) from None
+    rows = _csv_rows(p, text, _delimiter(text))
     del text
     counts: Counter[str] = Counter() if rejected is None else rejected
-    rows = [r for r in rows if r and any(c.strip() for c in r)]
     if not rows:
         msg = f"{p}: empty file, expected a header with columns {','.join(required)}"
         raise InvalidInputError(msg)
     header = [c.strip() for c in rows[0]]
     missing = [c for c in required if c not in header]
+    if missing and _loose_header(header, required) is not None:
+        header = _loose_header(header, required) or header
+        _log.info("%s: header %s read as %s", p, ",".join(c.strip() for c in rows[0]), ",".join(header))
+        missing = []
     if missing:
         msg = f"{p}: missing column(s) {','.join(missing)}; header is {','.join(header)}"
         raise InvalidInputError(msg)
     body = rows[1:]
+    if skip_bad_rows and "t" in required and body:
+        _times_are_numbers(p, header.index("t"), body)
     if not body:
         msg = f"{p}: no data rows"
         raise InvalidInputError(msg)
@@ -135,6 +137,65 @@ def read_table(
         msg = f"{p}: column t decreases at line {line}"
         raise InvalidInputError(msg)
     return out
+
+
+#: Header names read as ``t`` when a file has no ``t`` column.
+TIME_ALIASES = ("time", "t_s", "timestamp", "time_s", "seconds")
+
+
+def _delimiter(text: str) -> str:
+    """',' unless the header line (the first that is not a '#' comment) has none but ';' or a tab (user review: a
+    semicolon- or tab-separated export, its header plainly naming the columns, read 'missing column(s) t,...')."""
+    first = next((ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
+    if "," in first:
+        return ","
+    return ";" if ";" in first else "\t" if "\t" in first else ","
+
+
+def _csv_rows(p: Path, text: str, delimiter: str) -> list[list[str]]:
+    """The non-empty rows, leading '#' comment lines left out (a logger's note above the header); with ';' a
+    decimal comma is a point (the exports that separate with ';' write 0,01)."""
+    try:
+        rows = [r for r in csv.reader(io.StringIO(text, newline=""), delimiter=delimiter)
+                if r and any(c.strip() for c in r)]
+    except csv.Error as exc:
+        msg = f"{p}: cannot read as CSV ({exc})"
+        raise InvalidInputError(msg) from None
+    while rows and rows[0][0].lstrip().startswith("#"):
+        rows.pop(0)
+    if delimiter == ";":
+        rows = [rows[0], *([c.replace(",", ".") for c in r] for r in rows[1:])] if rows else rows
+    return rows
+
+
+def _loose_header(header: list[str], required: Sequence[str]) -> list[str] | None:
+    """The header read loosely, or None when that finds the required columns no better: names lower-cased, a
+    unit after them left out ('t [s]', 'gx (deg/s)': walkmon infers the units from the data), a time column
+    under a usual other name taken as ``t``."""
+    names = [re.sub(r"\s*[\[(][^\])]*[\])]\s*$", "", c.strip()).strip().lower() for c in header]
+    if "t" not in names:
+        alias = next((a for a in TIME_ALIASES if a in names), None)
+        if alias is not None:
+            names[names.index(alias)] = "t"
+    return names if all(c in names for c in required) else None
+
+
+def _times_are_numbers(p: Path, k: int, body: list[list[str]]) -> None:
+    """One line for a time column that holds no numbers (ISO dates: user review, '0 plausible IMU rows ...
+    (malformed 1115) ... a dead sensor reads all zeros' never said what was wrong)."""
+    cells = [r[k].strip() for r in body[:200] if len(r) > k]
+    numbers = 0
+    for c in cells:
+        try:
+            float(c)
+            numbers += 1
+        except ValueError:
+            pass
+    if cells and numbers < 0.1 * len(cells):
+        example = next(c for c in cells if c)
+        msg = (f"{p}: column t holds no numbers (e.g. {example[:40]!r}): times must be seconds, one number a row "
+               f"(convert dates to seconds since the start)")
+        raise InvalidInputError(msg)
 
 
 def write_table(
@@ -375,6 +436,12 @@ def _keep_plausible(
     tt = t[values_ok & np.isfinite(t)]
     tt = tt[~time_jumps(tt)]
     earlier = tt[1:] < np.maximum.accumulate(tt)[:-1] if tt.size > 1 else np.zeros(0, bool)
+    steps_back = int(np.sum(np.diff(tt) < 0)) if tt.size > 1 else 0
+    if int(earlier.sum()) > max(1, 0.01 * n_total) and steps_back > max(3, 0.001 * n_total):
+        # rows in no order (a spreadsheet sorted by another column): not a reset to split at (user review)
+        msg = (f"{path}: the rows are out of time order (the time goes back {steps_back} times): sort the file by "
+               f"t")
+        raise InvalidInputError(msg)
     if int(earlier.sum()) > max(1, 0.01 * n_total):
         # a clock reset (or files joined): the rows after it are not a few late samples to drop
         i = int(np.argmax(earlier))

@@ -89,15 +89,17 @@ def _path_ratio(t: np.ndarray, gyro: np.ndarray, acc: np.ndarray) -> float:
     return given_sum / shown_sum if shown_sum > 0 else float("nan")
 
 
-def _usable(t: np.ndarray, gyro: np.ndarray | None, acc: np.ndarray) -> np.ndarray:
+def _usable(t: np.ndarray, gyro: np.ndarray | None, acc: np.ndarray, *, in_order: bool = True) -> np.ndarray:
     """Rows that could be real in any of the units (finite, within every unit's sensor range, some gravity,
-    time stamps strictly later than every earlier usable row): one corrupted or repeated row must not decide."""
+    time stamps strictly later than every earlier usable row unless ``in_order`` is False): one corrupted or
+    repeated row must not decide."""
     ok = np.isfinite(t) & np.isfinite(acc).all(axis=1) & (np.abs(acc) <= _MAX_ACC).all(axis=1)
     if gyro is not None:
         ok &= np.isfinite(gyro).all(axis=1) & (np.abs(gyro) <= _MAX_RATE).all(axis=1)
     ok &= np.linalg.norm(np.where(ok[:, None], acc, 0.0), axis=1) >= _MIN_ACC
-    latest = np.maximum.accumulate(np.where(ok, t, -np.inf))
-    ok &= t > np.r_[-np.inf, latest[:-1]]
+    if in_order:
+        latest = np.maximum.accumulate(np.where(ok, t, -np.inf))
+        ok &= t > np.r_[-np.inf, latest[:-1]]
     return ok
 
 
@@ -109,8 +111,9 @@ def infer_units(t_s: ArrayLike, gyro: ArrayLike | None, acc: ArrayLike, *, sourc
     g = None if gyro is None else np.asarray(gyro, dtype=float)
     ok = _usable(t, g, a)
     notes: list[str] = []
-    if ok.sum() >= 2:
-        dt = float(np.median(np.diff(t[ok])))
+    anyhow = _usable(t, g, a, in_order=False)  # rows out of order (shuffled) are the order check's to name
+    if anyhow.sum() >= 2:
+        dt = float(np.median(np.diff(np.sort(t[anyhow]))))
         if dt > _MAX_INTERVAL_S:
             msg = (f"{source}: samples {dt:g} apart on median ({1.0 / dt:.3g} per unit of t): t must be in seconds "
                    f"and the IMU sampled at 10 Hz or more (is t in milliseconds or nanoseconds?)")
