@@ -379,6 +379,11 @@ def _gait_stage(
         session = analyze_session(t, a, imu=imu_input, abs_angles_deg=absolute, baseline=base, settings=settings,
                                   no_yaw=no_yaw, reference_deg=ref)
         indicators, timeline = session.indicators, session.timeline
+        axes_warning = (fields.get("imu_info") or {}).get("axes_warning")
+        if axes_warning:  # another sensor's axes: its pitch and roll are not the trunk's, in no output
+            from walkmon.gait.session import without_posture  # noqa: PLC0415
+
+            indicators, timeline = without_posture(indicators, timeline, axes_warning)
     meta = dict(meta or {})
     if base_path:
         meta.setdefault("baseline", base_path)

@@ -105,3 +105,29 @@ def test_accelerometer_only_inclinations_are_gravitys_against_truth(tmp_path: Pa
         weights.append(s["end_s"] - s["start_s"])
         incl.append(got)
     assert doc["axes"]["pitch"]["inclination_mean"] == pytest.approx(np.average(incl, weights=weights), abs=0.05)
+
+
+def test_an_imu_in_another_sensors_axes_reports_no_posture(tmp_path: Path) -> None:
+    """User review: files in another sensor's own axes (Mobilise-D's x up, a phone upside down in a neck pouch)
+    were analysed for posture anyway: '6 % upright' in the report and the history, pitch wrapping past -180 deg in
+    timeline.csv, the axes warning on stderr and in imu.json only. Their posture is withheld everywhere; the steps,
+    bouts and cadence stay."""
+    sim = tmp_path / "sim"
+    assert main(["simulate", "--walk", "normal:12", "--seed", "2", "--no-video", "--no-progress",
+                 "--out", str(sim)]) == 0
+    imu = read_table(sim / "imu.csv", ("t", "gx", "gy", "gz", "ax", "ay", "az"))
+    # camera axes -> a lower-back sensor's (x up = camera -y, y = camera x, z = camera z... a proper rotation)
+    turned = {"t": imu["t"], "gx": -imu["gy"], "gy": imu["gx"], "gz": imu["gz"],
+              "ax": -imu["ay"], "ay": imu["ax"], "az": imu["az"]}
+    write_table(tmp_path / "lowback.csv", turned)
+    assert main(["analyze", "--imu", str(tmp_path / "lowback.csv"), "--out", str(tmp_path / "out")]) == 0
+    doc = json.loads((tmp_path / "out" / "indicators.json").read_text())
+    assert doc["summary"]["n_bouts"] >= 1 and doc["cadence_spm"] is not None
+    assert doc["classification"]["label"] == "unclassified" and "no posture" in doc["classification"]["reasons"][0]
+    assert doc["axes"]["pitch"]["inclination_mean"] is None and doc["axes"]["roll"]["inclination_mean"] is None
+    assert all(s["label"] == "unclassified" for s in doc["segments"])
+    assert any("camera axes' up" in n for n in doc["input"]["notes"])
+    rows = [r.split(",") for r in (tmp_path / "out" / "timeline.csv").read_text().splitlines()[1:]]
+    assert {r[3] for r in rows} == {"nan"} and {r[4] for r in rows} == {"nan"}
+    report = (tmp_path / "out" / "report.html").read_text()
+    assert "% upright" not in report and "another sensor" in report

@@ -65,6 +65,7 @@ __all__ = [
     "SessionAnalysis",
     "SessionSettings",
     "analyze_session",
+    "without_posture",
     "camera_level_down",
     "change_limits",
     "change_points",
@@ -1496,6 +1497,39 @@ def _weighted_asym(items: list[tuple[float, Indicators]]) -> dict[str, float]:
         vals = [(w, v) for w, v in vals if v is not None and math.isfinite(v)]
         out[k] = sum(w * v for w, v in vals) / sum(w for w, _ in vals) if vals else float("nan")
     return out
+
+
+def without_posture(ind: Indicators, timeline: tuple, reason: str) -> tuple[Indicators, tuple]:
+    """The analysis with no posture in it: for a sensor in another sensor's axes (``reason``: the axes warning),
+    whose pitch and roll are not the trunk's (user review: a neck-pouch phone near upside down read 0-64 % upright
+    in the report and the history, its pitch wrapping past -180 deg, the warning on stderr and in imu.json only).
+    Pitch and roll figures become null (top level, bouts, segments; the timeline's pitch and roll empty), every
+    label ``unclassified`` with the reason, and the reason joins ``input.notes``; steps, bouts, cadence, turns and
+    yaw stay."""
+    nan = float("nan")
+    none = AxisIndicators(nan, nan, nan, nan, n_cycles=0)
+    why = f"no posture: {reason}"
+    session = {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in ind.session.items()}
+    for key in ("segments", "bouts"):
+        docs = []
+        for d in session.get(key) or ():
+            axes = dict(d.get("axes") or {})
+            axes.update({ax: none.to_dict() for ax in ("pitch", "roll") if ax in axes})
+            docs.append({**d, "axes": axes, "label": "unclassified", "reasons": [why]})
+        session[key] = docs
+    summary = dict(session.get("summary") or {})
+    if summary:
+        labelled = sum(float(v or 0.0) for v in (summary.get("posture_time_s") or {}).values())
+        summary.update(posture_time_s={"unclassified": _num(labelled, 2)} if labelled else {},
+                       dominant_label="unclassified", dominant_share=1.0 if labelled else None)
+        session["summary"] = summary
+    inputs = dict(session.get("input") or {})
+    inputs["notes"] = [*(inputs.get("notes") or []), reason]
+    session["input"] = inputs
+    axes = {**ind.axes, "pitch": none, "roll": none}
+    rows = tuple((t, act, "unclassified" if act == "walking" else "", nan, nan, u)
+                 for t, act, _label, _p, _r, u in timeline)
+    return replace(ind, axes=axes, classification=Classification("unclassified", (why,)), session=session), rows
 
 
 def _coverage_note(t: NDArray, seg: Segmentation, hop: float) -> list[str]:
