@@ -131,3 +131,16 @@ def test_an_imu_in_another_sensors_axes_reports_no_posture(tmp_path: Path) -> No
     assert {r[3] for r in rows} == {"nan"} and {r[4] for r in rows} == {"nan"}
     report = (tmp_path / "out" / "report.html").read_text()
     assert "% upright" not in report and "another sensor" in report
+
+
+def test_indicators_on_an_imu_analysis_angles_says_where_its_steps_come_from(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """User review: 'walkmon indicators' on analyze --imu's own angles.csv gave another cadence (130.7 against
+    81.6 steps/min) without a word: its steps come from the pitch, as a camera's do, not the accelerometer."""
+    sim = tmp_path / "sim"
+    assert main(["simulate", "--walk", "normal:10", "--seed", "4", "--no-video", "--no-progress",
+                 "--out", str(sim)]) == 0
+    assert main(["analyze", "--imu", str(sim / "imu.csv"), "--out", str(tmp_path / "a")]) == 0
+    with caplog.at_level("WARNING"):
+        assert main(["indicators", str(tmp_path / "a" / "angles.csv"), "--out", str(tmp_path / "i")]) == 0
+    assert any("the angles of an IMU analysis" in r.getMessage() for r in caplog.records)

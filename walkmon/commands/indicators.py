@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import math
 import sys
 from collections.abc import Mapping
@@ -14,6 +15,8 @@ import numpy as np
 
 from walkmon.consts import ANGLE_COLUMNS
 from walkmon.errors import InvalidInputError
+
+_log = logging.getLogger(__name__)
 
 NAME = "indicators"
 HELP = "gait indicators, walk classification and report.html from an angles CSV (t,pitch,yaw,roll; truth.csv works)"
@@ -126,6 +129,11 @@ def run(args: argparse.Namespace) -> int:
             else None)
     if keep is not None:  # the frames the estimator held measure nothing (see measured_rows), as in analyze
         t, angles, absolute = t[keep], angles[keep], None if absolute is None else absolute[keep]
+    if absolute is not None and model is None and "visual_used" not in table:
+        # an IMU analysis's angles (its attitude; no camera columns): user review, its cadence read 130.7 where
+        # 'analyze --imu' read 81.6 (74-93 by INDIP), silently. Said, and kept with the outputs.
+        _log.warning("%s: the angles of an IMU analysis: steps and cadence here come from the pitch, as a camera's "
+                     "would; 'walkmon analyze --imu' found them in the accelerometer, the better source", path)
     json_path, html_path, ind = gait_outputs(
         args.out, t, angles, baseline_path=args.baseline, mode=args.mode, meta=_meta_beside(path),
         abs_angles_deg=absolute,
