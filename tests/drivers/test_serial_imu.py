@@ -225,6 +225,14 @@ def test_samples_arriving_together_get_their_own_times(pty_pair) -> None:  # noq
     assert np.median(np.diff(t[15:])) == pytest.approx(0.016 / 3, rel=0.35)
 
 
+def _live_6_s(imu_url: str, data_dir) -> int:  # noqa: ANN001
+    """``walkmon live`` for 6 s: a simulated camera in real time (2 s standing, 4 s walking) and ``imu_url``."""
+    from walkmon.commands.cli import main
+
+    return main(["live", "--camera", "sim:stand:2,normal:4?realtime=1&width=160&height=120", "--imu", imu_url,
+                 "--data-dir", str(data_dir), "--status", "none", "--duration", "6"])
+
+
 def test_live_session_follows_a_csv_imu_whose_clock_restarts(pty_pair, tmp_path, capsys) -> None:  # noqa: ANN001
     """A microcontroller streaming CSV with its own clock (micros-style, from its power-up) reboots mid-session:
     the live session fuses the IMU before and after (every sample after the reboot was refused as going back in
@@ -232,7 +240,6 @@ def test_live_session_follows_a_csv_imu_whose_clock_restarts(pty_pair, tmp_path,
     serial samples are on the host clock: the pipeline puts them on the frames' clock."""
     import sqlite3
 
-    from walkmon.commands.cli import main
 
     master, name, _ = pty_pair
     stop = threading.Event()
@@ -251,9 +258,7 @@ def test_live_session_follows_a_csv_imu_whose_clock_restarts(pty_pair, tmp_path,
     feeder = threading.Thread(target=feed, daemon=True)
     feeder.start()
     try:
-        rc = main(["live", "--camera", "sim:stand:2,normal:4?realtime=1&width=160&height=120",
-                   "--imu", f"serial:{name}?protocol=csv", "--data-dir", str(tmp_path), "--status", "none",
-                   "--duration", "6"])
+        rc = _live_6_s(f"serial:{name}?protocol=csv", tmp_path)
     finally:
         stop.set()
         feeder.join(2.0)
@@ -275,7 +280,6 @@ def test_live_session_reopens_a_serial_imu_unplugged_and_plugged_back(tmp_path, 
     a new one 1 s later (plugged back): the session fuses again after it."""
     import sqlite3
 
-    from walkmon.commands.cli import main
 
     link = tmp_path / "walkmon-imu"
     stop = threading.Event()
@@ -314,9 +318,7 @@ def test_live_session_reopens_a_serial_imu_unplugged_and_plugged_back(tmp_path, 
     while not link.exists():
         time.sleep(0.01)
     try:
-        rc = main(["live", "--camera", "sim:stand:2,normal:4?realtime=1&width=160&height=120",
-                   "--imu", f"serial:{link}?protocol=csv", "--data-dir", str(tmp_path), "--status", "none",
-                   "--duration", "6"])
+        rc = _live_6_s(f"serial:{link}?protocol=csv", tmp_path)
     finally:
         stop.set()
         feeder.join(3.0)
