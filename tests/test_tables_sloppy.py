@@ -61,3 +61,40 @@ def test_rows_out_of_order_and_dates_are_named(tmp_path: Path) -> None:
                                                          for i in range(50)), encoding="utf-8")
     with pytest.raises(InvalidInputError, match="column t holds no numbers"):
         read_imu_file(dates)
+
+
+def test_review_edges_of_the_loose_reading(tmp_path: Path) -> None:
+    """Review of the loose reading: a header whose first name starts with '#' is the header (it was taken for a
+    comment); empty t cells are the rows' fault, not 'no numbers' (a bare StopIteration escaped); t in milliseconds
+    with every row written twice is still named (the duplicates made the median interval 0)."""
+    hashed = tmp_path / "hashed.csv"
+    hashed.write_text("#frame,t,pitch,yaw,roll\n0,0,1,2,3\n1,0.1,1,2,3\n", encoding="utf-8")
+    assert read_table(hashed, ("t", "pitch", "roll"))["pitch"].tolist() == [1.0, 1.0]
+    holes = tmp_path / "holes.csv"
+    holes.write_text("t,ax,ay,az\n" + ",0,0,9.8\n" * 250 + "".join(f"{0.01 * i:.2f},0,0,9.8\n" for i in range(100)),
+                     encoding="utf-8")
+    assert len(read_table(holes, ("t", "ax", "ay", "az"), skip_bad_rows=True)["t"]) == 100
+    twice = tmp_path / "twice_ms.csv"
+    twice.write_text("t,gx,gy,gz,ax,ay,az\n" + "".join(f"{10.0 * i:.1f},0,0,0,0,-9.8,0\n" * 2 for i in range(500)),
+                     encoding="utf-8")
+    with pytest.raises(InvalidInputError, match="milliseconds"):
+        read_imu_file(twice)
+
+
+@pytest.mark.parametrize("variant", [{"sep": ";"}, {"sep": "\t", "decimal": ","}, {"before": "# note\n"},
+                                     {"header": "T,GX [deg/s],GY,GZ,AX,AY,AZ"}], ids=["semicolon", "tab comma",
+                                                                                       "comment", "loose"])
+def test_empty_gyroscope_cells_in_an_export_keep_the_gyroscope(tmp_path: Path, variant: dict) -> None:
+    """Review: the empty-gyroscope rule read the header as a plain comma file, so every other export with a few
+    empty gx cells still became accelerometer-only."""
+    from walkmon.tables import imu_file_kind
+
+    text = _text(**variant).splitlines()
+    sep = variant.get("sep", ",")
+    start = len(text) - len(ROWS)
+    for i in range(start + 10, start + 13):
+        cells = text[i].split(sep)
+        text[i] = sep.join([cells[0], "", *cells[2:]])
+    p = tmp_path / "export.csv"
+    p.write_text("\n".join(text) + "\n", encoding="utf-8")
+    assert imu_file_kind(p) == "imu"

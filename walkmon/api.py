@@ -231,7 +231,11 @@ class Analysis:
         return record_offline_session(
             folder, self.t_s, self.angles_deg, source=self.source,
             imu=str((self.imu_info or {}).get("imu", "")),
-            config={"method": self.method}, meta=dict(meta or {}),
+            config={"method": self.method},
+            # the axes warning too: 'walkmon report ID' re-analyses the saved IMU and must withhold its posture as
+            # this analysis did (review: it read '9 % upright' and a pitch of 172 deg where analyze had none)
+            meta={**dict(meta or {}), **({"axes_warning": warn} if (warn := (self.imu_info or {}).get("axes_warning"))
+                                         else {})},
             extra=[(e.n_inliers, e.model, e.status.value) for e in self.estimates] or None,  # none: IMU-only
             abs_angles_deg=absolute, fused=fused, imu_samples=samples, timeline=self._timeline_hops(),
         )
@@ -352,11 +356,14 @@ def _gait_stage(
     meta: Mapping[str, Any] | None = None,
     imu_input: Any = None,
     no_yaw: bool = False,
+    no_posture: str | None = None,
     **fields: Any,
 ) -> Analysis:
     """The later stages shared by every entry point: in walkmon mode the session analysis (activity, bouts,
     posture segments, summary, timeline; :mod:`walkmon.gait.session`), in paper mode the paper's whole-recording
-    indicators; ``imu_input``: the raw IMU (:class:`walkmon.gait.session.ImuInput`) for steps and activity."""
+    indicators; ``imu_input``: the raw IMU (:class:`walkmon.gait.session.ImuInput`) for steps and activity;
+    ``no_posture``: why no posture may be reported (an IMU in another sensor's axes; else imu_info's
+    axes_warning), :func:`walkmon.gait.session.without_posture`."""
     base, base_path = _baseline(baseline)
     settings = IndicatorSettings(mode=mode)
     t = np.asarray(columns["t"], dtype=float)
@@ -379,11 +386,11 @@ def _gait_stage(
         session = analyze_session(t, a, imu=imu_input, abs_angles_deg=absolute, baseline=base, settings=settings,
                                   no_yaw=no_yaw, reference_deg=ref)
         indicators, timeline = session.indicators, session.timeline
-        axes_warning = (fields.get("imu_info") or {}).get("axes_warning")
-        if axes_warning:  # another sensor's axes: its pitch and roll are not the trunk's, in no output
+        no_posture = no_posture or (fields.get("imu_info") or {}).get("axes_warning")
+        if no_posture:  # another sensor's axes: its pitch and roll are not the trunk's, in no output
             from walkmon.gait.session import without_posture  # noqa: PLC0415
 
-            indicators, timeline = without_posture(indicators, timeline, axes_warning)
+            indicators, timeline = without_posture(indicators, timeline, no_posture)
     meta = dict(meta or {})
     if base_path:
         meta.setdefault("baseline", base_path)
@@ -950,8 +957,10 @@ class Session:
         columns: dict[str, Any] = {"t": t - t0, "pitch": a[:, 0], "yaw": a[:, 1], "roll": a[:, 2]}
         if absolute is not None:
             columns.update(pitch_abs=absolute[:, 0], roll_abs=absolute[:, 1])
+        saved = r.get("meta") if isinstance(r.get("meta"), Mapping) else {}
+        axes = saved.get("axes_warning") if isinstance(saved, Mapping) else None  # a saved analysis's (see save)
         return _gait_stage(columns, baseline=baseline, mode="walkmon", reference_deg=reference, meta=meta,
-                           imu_input=imu_input, no_yaw=no_yaw)
+                           imu_input=imu_input, no_yaw=no_yaw, no_posture=str(axes) if axes else None)
 
     def _imu_input(self, t0: float) -> Any:
         """The raw IMU samples an offline analysis stored (:meth:`Analysis.save`), on the frames' time base less

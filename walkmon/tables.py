@@ -75,15 +75,13 @@ def read_table(
     rows = _csv_rows(p, text, _delimiter(text))
     del text
     counts: Counter[str] = Counter() if rejected is None else rejected
-    if not rows:
+    header = _header(rows, required)
+    if header is None:
         msg = f"{p}: empty file, expected a header with columns {','.join(required)}"
         raise InvalidInputError(msg)
-    header = [c.strip() for c in rows[0]]
-    missing = [c for c in required if c not in header]
-    if missing and _loose_header(header, required) is not None:
-        header = _loose_header(header, required) or header
+    if rows and [c.strip() for c in rows[0]] != header:
         _log.info("%s: header %s read as %s", p, ",".join(c.strip() for c in rows[0]), ",".join(header))
-        missing = []
+    missing = [c for c in required if c not in header]
     if missing:
         msg = f"{p}: missing column(s) {','.join(missing)}; header is {','.join(header)}"
         raise InvalidInputError(msg)
@@ -144,28 +142,52 @@ TIME_ALIASES = ("time", "t_s", "timestamp", "time_s", "seconds")
 
 
 def _delimiter(text: str) -> str:
-    """',' unless the header line (the first that is not a '#' comment) has none but ';' or a tab (user review: a
-    semicolon- or tab-separated export, its header plainly naming the columns, read 'missing column(s) t,...')."""
-    first = next((ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
+    """',' unless the header line (the first that is not a '#' comment; or the first) has none but ';' or a tab
+    (user review: a semicolon- or tab-separated export, its header plainly naming the columns, read 'missing
+    column(s) t,...')."""
+    lines = [ln for ln in text.splitlines()[:50] if ln.strip()]
+    first = next((ln for ln in lines if not ln.lstrip().startswith("#")), lines[0] if lines else "")
     if "," in first:
         return ","
     return ";" if ";" in first else "\t" if "\t" in first else ","
 
 
+#: A number written with a decimal comma (0,01; -1,5e-3), as ';'- and tab-separated exports write them.
+_DECIMAL_COMMA = re.compile(r"^\s*[+-]?\d*,\d+([eE][+-]?\d+)?\s*$")
+
+
 def _csv_rows(p: Path, text: str, delimiter: str) -> list[list[str]]:
-    """The non-empty rows, leading '#' comment lines left out (a logger's note above the header); with ';' a
-    decimal comma is a point (the exports that separate with ';' write 0,01)."""
+    """The non-empty rows; with ';' or a tab, a number's decimal comma is a point (those exports write 0,01; only
+    cells that are such a number: text and '1.000,5' are left as they are)."""
     try:
         rows = [r for r in csv.reader(io.StringIO(text, newline=""), delimiter=delimiter)
                 if r and any(c.strip() for c in r)]
     except csv.Error as exc:
         msg = f"{p}: cannot read as CSV ({exc})"
         raise InvalidInputError(msg) from None
-    while rows and rows[0][0].lstrip().startswith("#"):
-        rows.pop(0)
-    if delimiter == ";":
-        rows = [rows[0], *([c.replace(",", ".") for c in r] for r in rows[1:])] if rows else rows
+    if delimiter != "," and len(rows) > 1:
+        rows = [rows[0], *([c.replace(",", ".") if _DECIMAL_COMMA.match(c) else c for c in r] for r in rows[1:])]
     return rows
+
+
+def _header(rows: list[list[str]], required: Sequence[str]) -> list[str] | None:
+    """The header's names (``rows`` loses the lines above it): the first row as written when it names every
+    required column (a header whose first name starts with '#' included: review); else after leading '#' comment
+    lines (a logger's note above the header), and read loosely (:func:`_loose_header`) when that finds them; else
+    the first row as written, for the caller's 'missing column(s)'. None for no rows."""
+    if not rows:
+        return None
+    first = [c.strip() for c in rows[0]]
+    if all(c in first for c in required):
+        return first
+    k = 0
+    while k < len(rows) - 1 and rows[k][0].lstrip().startswith("#"):
+        k += 1
+    for cand in ([c.strip() for c in rows[k]], _loose_header(rows[k], required)):
+        if cand is not None and all(c in cand for c in required):
+            del rows[:k]
+            return cand
+    return first
 
 
 def _loose_header(header: list[str], required: Sequence[str]) -> list[str] | None:
@@ -183,7 +205,7 @@ def _loose_header(header: list[str], required: Sequence[str]) -> list[str] | Non
 def _times_are_numbers(p: Path, k: int, body: list[list[str]]) -> None:
     """One line for a time column that holds no numbers (ISO dates: user review, '0 plausible IMU rows ...
     (malformed 1115) ... a dead sensor reads all zeros' never said what was wrong)."""
-    cells = [r[k].strip() for r in body[:200] if len(r) > k]
+    cells = [c for c in (r[k].strip() for r in body[:: max(1, len(body) // 200)] if len(r) > k) if c]
     numbers = 0
     for c in cells:
         try:
@@ -191,8 +213,8 @@ def _times_are_numbers(p: Path, k: int, body: list[list[str]]) -> None:
             numbers += 1
         except ValueError:
             pass
-    if cells and numbers < 0.1 * len(cells):
-        example = next(c for c in cells if c)
+    if cells and numbers < 0.1 * len(cells):  # (empty cells are the rows' own fault: skipped and counted)
+        example = cells[0]
         msg = (f"{p}: column t holds no numbers (e.g. {example[:40]!r}): times must be seconds, one number a row "
                f"(convert dates to seconds since the start)")
         raise InvalidInputError(msg)
@@ -290,12 +312,13 @@ def imu_file_kind(path: str | Path) -> str:
 
 
 def _header_has(path: str | Path, names: Sequence[str]) -> bool:
-    """The CSV file's header names all of ``names``."""
+    """The CSV file's header, read as :func:`read_table` reads it (its delimiter, comment lines, loose names:
+    review, the empty-gyroscope rule missed every export but a plain comma one), names all of ``names``."""
     from walkmon.safe_io import MAX_TABLE_BYTES, read_bounded  # noqa: PLC0415
 
     text = read_bounded(path, MAX_TABLE_BYTES, "CSV table").decode("utf-8-sig", "replace")
-    first = next((ln for ln in text.splitlines() if ln.strip()), "")
-    return set(names) <= {c.strip() for c in next(csv.reader([first]), [])}
+    header = _header(_csv_rows(Path(path), text, _delimiter(text)), names)
+    return header is not None and all(c in header for c in names)
 
 
 def read_acc_csv(path: str | Path, *, units_out: list[str] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

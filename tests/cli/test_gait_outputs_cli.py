@@ -120,7 +120,8 @@ def test_an_imu_in_another_sensors_axes_reports_no_posture(tmp_path: Path) -> No
     turned = {"t": imu["t"], "gx": -imu["gy"], "gy": imu["gx"], "gz": imu["gz"],
               "ax": -imu["ay"], "ay": imu["ax"], "az": imu["az"]}
     write_table(tmp_path / "lowback.csv", turned)
-    assert main(["analyze", "--imu", str(tmp_path / "lowback.csv"), "--out", str(tmp_path / "out")]) == 0
+    assert main(["analyze", "--imu", str(tmp_path / "lowback.csv"), "--out", str(tmp_path / "out"), "--save",
+                 "--data-dir", str(tmp_path / "db")]) == 0
     doc = json.loads((tmp_path / "out" / "indicators.json").read_text())
     assert doc["summary"]["n_bouts"] >= 1 and doc["cadence_spm"] is not None
     assert doc["classification"]["label"] == "unclassified" and "no posture" in doc["classification"]["reasons"][0]
@@ -131,6 +132,11 @@ def test_an_imu_in_another_sensors_axes_reports_no_posture(tmp_path: Path) -> No
     assert {r[3] for r in rows} == {"nan"} and {r[4] for r in rows} == {"nan"}
     report = (tmp_path / "out" / "report.html").read_text()
     assert "% upright" not in report and "another sensor" in report
+    # the saved session's report, which analyses its stored IMU again (review: it had posture back, 9 % upright)
+    assert main(["report", "1", "--data-dir", str(tmp_path / "db"), "--out", str(tmp_path / "rep")]) == 0
+    again = json.loads((tmp_path / "rep" / "indicators.json").read_text())
+    assert again["axes"]["pitch"]["inclination_mean"] is None and again["classification"]["label"] == "unclassified"
+    assert "% upright" not in (tmp_path / "rep" / "report.html").read_text()
 
 
 def test_indicators_on_an_imu_analysis_angles_says_where_its_steps_come_from(
@@ -140,7 +146,14 @@ def test_indicators_on_an_imu_analysis_angles_says_where_its_steps_come_from(
     sim = tmp_path / "sim"
     assert main(["simulate", "--walk", "normal:10", "--seed", "4", "--no-video", "--no-progress",
                  "--out", str(sim)]) == 0
-    assert main(["analyze", "--imu", str(sim / "imu.csv"), "--out", str(tmp_path / "a")]) == 0
+    assert main(["analyze", "--imu", str(sim / "imu.csv"), "--out", str(tmp_path / "a"), "--save", "--data-dir",
+                 str(tmp_path / "db")]) == 0
     with caplog.at_level("WARNING"):
         assert main(["indicators", str(tmp_path / "a" / "angles.csv"), "--out", str(tmp_path / "i")]) == 0
+    assert any("the angles of an IMU analysis" in r.getMessage() for r in caplog.records)
+    # the session's export too (its model column empty on every row: review)
+    assert main(["sessions", "export", "1", "--data-dir", str(tmp_path / "db"), "--out", str(tmp_path / "x")]) == 0
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        assert main(["indicators", str(tmp_path / "x" / "angles.csv"), "--out", str(tmp_path / "i2")]) == 0
     assert any("the angles of an IMU analysis" in r.getMessage() for r in caplog.records)

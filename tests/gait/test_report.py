@@ -211,3 +211,6 @@ def test_timeline_seconds_are_drawn_where_they_are() -> None:
     svg = str(timeline_svg(timeline_from_columns(cols)))
     assert "standing: 0 s - 1.5 s" in svg and "normal: 1.5 s - 3.5 s" in svg
     assert "-1 s" not in svg
+    cols["ref_uncertainty_deg"] = [5.0, 0.0, 0.0, 0.0]  # the shading starts at the axis too (review: -0.5 s)
+    svg = str(timeline_svg(timeline_from_columns(cols)))
+    assert "up to 5.0 deg, 0 s - 0.5 s" in svg and 'rect x="-' not in svg

@@ -129,7 +129,10 @@ def run(args: argparse.Namespace) -> int:
             else None)
     if keep is not None:  # the frames the estimator held measure nothing (see measured_rows), as in analyze
         t, angles, absolute = t[keep], angles[keep], None if absolute is None else absolute[keep]
-    if absolute is not None and model is None and "visual_used" not in table:
+    fused = table.get("fused")
+    if (absolute is not None and not any(model or ()) and "visual_used" not in table
+            and (fused is None or not np.isfinite(fused).any())):
+        # (a sessions export of an IMU analysis has model and fused columns, empty on every row: review)
         # an IMU analysis's angles (its attitude; no camera columns): user review, its cadence read 130.7 where
         # 'analyze --imu' read 81.6 (74-93 by INDIP), silently. Said, and kept with the outputs.
         _log.warning("%s: the angles of an IMU analysis: steps and cadence here come from the pitch, as a camera's "

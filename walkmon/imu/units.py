@@ -113,7 +113,7 @@ def infer_units(t_s: ArrayLike, gyro: ArrayLike | None, acc: ArrayLike, *, sourc
     notes: list[str] = []
     anyhow = _usable(t, g, a, in_order=False)  # rows out of order (shuffled) are the order check's to name
     if anyhow.sum() >= 2:
-        dt = float(np.median(np.diff(np.sort(t[anyhow]))))
+        dt = float(np.median(np.diff(np.unique(t[anyhow]))))  # (unique: rows written twice are no 0 s interval)
         if dt > _MAX_INTERVAL_S:
             msg = (f"{source}: samples {dt:g} apart on median ({1.0 / dt:.3g} per unit of t): t must be in seconds "
                    f"and the IMU sampled at 10 Hz or more (is t in milliseconds or nanoseconds?)")

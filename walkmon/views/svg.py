@@ -201,7 +201,7 @@ def timeline_svg(tl: dict[str, Any], *, width: int = 900, title: str = "Session 
         if shaded and abs(shaded[-1][1] - (ti - hop_s)) < 0.5 * hop_s:  # the next second: one band
             shaded[-1] = (shaded[-1][0], ti, max(shaded[-1][2], float(u)))
         else:
-            shaded.append((ti - hop_s, ti, float(u)))
+            shaded.append((max(ti - hop_s, xlim[0]), ti, float(u)))  # from the axis' start at most (review)
     for a, b, u in shaded:
         out.append(f'<rect x="{pp.x(a):.1f}" y="{pp.y0}" width="{max(0.5, pp.x(b) - pp.x(a)):.1f}" '
                    f'height="{rp.y0 + rp.h - pp.y0}" fill="#000000" fill-opacity="0.08"><title>upright reference '
