@@ -351,3 +351,31 @@ def test_a_still_cameras_jitter_is_no_reason_to_refuse_its_own_imu(tmp_path: Pat
         assert ext.correlation < 0.4  # the own IMU does not correlate on a still recording
         assert _video_turn_rate_deg_s(ft, vis, ok, (-1e9, 1e9)) < 1.5
         _same_recording(imu, ft, vis, ok, ext, None, "own imu.csv")  # no error
+
+
+def test_another_walks_imu_is_refused_and_an_own_imu_in_other_axes_fuses_without_posture(
+        walk: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Review: two walks at a like cadence correlate at 0.5-0.7 in rate magnitude, so another simulated walk's IMU
+    passed the 0.4 test and was fused (14 deg/s apart after the best rotation; a video's own IMU: under 1). And an
+    IMU in another sensor's axes fused with a video gave posture from its gravity (67 % upright, upright reference
+    -94 deg) without the axes warning the IMU-only path gives."""
+    from walkmon.simulate import simulate
+    from walkmon.tables import write_table
+
+    bend = simulate(tmp_path / "bend", walk="bend", seconds=10.0, seed=2, width=160, height=120)
+    other = simulate(tmp_path / "other", walk="normal", seconds=10.0, seed=1, width=64, height=48, video=False)
+    assert main(["analyze", str(bend.video_path), "--calib", str(bend.camera_path), "--no-progress", "--imu",
+                 str(other.imu_path), "--out", str(tmp_path / "o1")]) == 2
+    assert "does not follow the video" in capsys.readouterr().err
+    assert main(["analyze", str(bend.video_path), "--calib", str(bend.camera_path), "--no-progress", "--imu",
+                 str(bend.imu_path), "--out", str(tmp_path / "o0")]) == 0  # its own IMU fuses
+    base = ["analyze", str(walk / "video.mp4"), "--calib", str(walk / "camera.yaml"), "--no-progress", "--imu"]
+    imu = read_table(walk / "imu.csv", ["t", "gx", "gy", "gz", "ax", "ay", "az"])
+    turned = {"t": imu["t"], "gx": -imu["gy"], "gy": imu["gx"], "gz": imu["gz"],  # x up: a lower-back sensor's axes
+              "ax": -imu["ay"], "ay": imu["ax"], "az": imu["az"]}
+    write_table(tmp_path / "xup.csv", turned)
+    assert main([*base, str(tmp_path / "xup.csv"), "--out", str(tmp_path / "o2")]) == 0
+    info = json.loads((tmp_path / "o2" / "imu.json").read_text())
+    doc = json.loads((tmp_path / "o2" / "indicators.json").read_text())
+    assert "axes_warning" in info
+    assert doc["axes"]["pitch"]["inclination_mean"] is None and doc["classification"]["label"] == "unclassified"

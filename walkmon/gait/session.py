@@ -984,8 +984,10 @@ def analyze_session(
                   for k in ("standing", "walking", "turning", "unknown")}
     if t.size and len(seg.timeline_t_s):  # the recording's time outside the activity's (an IMU shorter than a video)
         hop = activity_settings.hop_s
-        activity_s["unknown"] += max(0.0, float(seg.timeline_t_s[0] - hop / 2 - t[0])) + \
-            max(0.0, float(t[-1] - seg.timeline_t_s[-1] - hop / 2))
+        before = float(seg.timeline_t_s[0] - hop / 2 - t[0])
+        after = float(t[-1] - seg.timeline_t_s[-1] - hop / 2)
+        # beyond the last hop's rounding (it added 0.02 s to a fully covered recording: review)
+        activity_s["unknown"] += (before if before > hop / 2 else 0.0) + (after if after > hop / 2 else 0.0)
     rows = timeline_rows(t, a, seg, seg_docs, ref_zero, unc=unc)
     # walking bouts found are a gait rhythm found (their steps and cadence are reported): 'no_gait' beside 3 bouts,
     # 20 steps and a cadence contradicted itself (user review); their posture figures may still be null
