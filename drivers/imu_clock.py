@@ -21,6 +21,7 @@ import collections
 import dataclasses
 import math
 
+from walkmon.drivers.imu_checks import CLOCK_RESTART_SAMPLES
 from walkmon.drivers.imu_types import ImuSample
 
 __all__ = ["ChunkStamps", "DeviceClock"]
@@ -47,8 +48,6 @@ class DeviceClock:
         mapping's and placed every sample up to that much early for ``window_s``: review). Refuse it; the
         :data:`~walkmon.drivers.imu_checks.CLOCK_RESTART_SAMPLES`-th in a row is a clock set forward: a new
         mapping from it (``restarts``)."""
-        from walkmon.drivers.imu_checks import CLOCK_RESTART_SAMPLES  # noqa: PLC0415
-
         if not self._delays or device_t_s + self._delays[0][1] <= arrival_s + self.ahead_s:
             self._ahead_run = 0
             return False

@@ -411,45 +411,47 @@ class LivePipeline:
             self._reconnecting = False
 
     def _reconnect_loop(self) -> bool:
-        src, s = self.camera, self.settings
-        backoff = s.reconnect_initial_s
-        since = time.monotonic()
-        src.close()
-        while not self._stop.is_set():
-            if s.reconnect_give_up_s and time.monotonic() - since > s.reconnect_give_up_s:
-                self._end_reason = self._end_reason or f"camera lost for more than {s.reconnect_give_up_s:g} s"
-                return False
-            if self._stop.wait(backoff):
-                return False
-            try:
-                src.open()
-            except SourceError as exc:
-                _log.warning("reconnect failed (%s); next try in %.1f s", exc, min(backoff * 2, s.reconnect_max_s))
-                backoff = min(backoff * 2, s.reconnect_max_s)
-                continue
+        s = self.settings
+        self.camera.close()
+        opened = self._reopen(self.camera, "", s.reconnect_give_up_s, logging.WARNING)
+        if opened is None:
+            self._end_reason = self._end_reason or f"camera lost for more than {s.reconnect_give_up_s:g} s"
+            return False
+        if opened:
             self._reconnects += 1
-            _log.warning("%s: reconnected", src.url)
-            return True
-        return False
+            _log.warning("%s: reconnected", self.camera.url)
+        return opened
 
     def _reconnect_imu(self) -> bool:
         """Reopen a reconnectable IMU (a serial device unplugged) with the camera's backoff, until it opens or the
         session stops (user review: an unplugged serial IMU was never reopened; under systemd the process ran on
         camera-only for good). The frames meanwhile are camera-only (the fusion's IMU gap)."""
         assert self.imu is not None
-        s = self.settings
-        backoff = s.reconnect_initial_s
         with contextlib.suppress(Exception):
             self.imu.close()
-        while not self._stop.wait(backoff):
-            try:
-                self.imu.open()
-            except SourceError as exc:
-                backoff = min(backoff * 2, s.reconnect_max_s)
-                _log.debug("IMU reconnect failed (%s); next try in %.1f s", exc, backoff)
-                continue
+        opened = bool(self._reopen(self.imu, "IMU ", 0.0, logging.DEBUG))
+        if opened:
             self._imu_reconnects += 1
             _log.warning("IMU %s: reconnected", getattr(self.imu, "url", ""))
+        return opened
+
+    def _reopen(self, src: Any, what: str, give_up_s: float, failed_level: int) -> bool | None:
+        """Open ``src`` again, waiting ``reconnect_initial_s`` doubling up to ``reconnect_max_s`` between tries:
+        True when it opened, False when the session stopped, None after ``give_up_s`` (0: never give up)."""
+        s = self.settings
+        backoff = s.reconnect_initial_s
+        since = time.monotonic()
+        while not self._stop.is_set():
+            if give_up_s and time.monotonic() - since > give_up_s:
+                return None
+            if self._stop.wait(backoff):
+                return False
+            try:
+                src.open()
+            except SourceError as exc:
+                backoff = min(backoff * 2, s.reconnect_max_s)
+                _log.log(failed_level, "%sreconnect failed (%s); next try in %.1f s", what, exc, backoff)
+                continue
             return True
         return False
 
