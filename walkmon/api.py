@@ -578,7 +578,7 @@ def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, 
     rel = absolute - absolute[0]
     cols: dict[str, Any] = {"t": t, "pitch": rel[:, 0], "yaw": np.full(t.size, np.nan), "roll": rel[:, 1],
                             "pitch_abs": absolute[:, 0], "roll_abs": absolute[:, 1],
-                            "_imu_input": ImuInput(t_raw - t_raw[0], acc, None)}
+                            "_imu_input": ImuInput(t_raw - t_raw[0], acc, None, acc_camera_m_s2=acc)}
     axes = _axes_note(acc, str(imu_path))
     info = {"mode": "accelerometer_only", "imu": str(imu_path), **({"axes_warning": axes} if axes else {}),
             "samples": len(t_raw), "rate_hz": round(rate, 3),
@@ -636,10 +636,14 @@ def _imu_only_columns(
     from walkmon.imu.recordings import imu_only_columns  # noqa: PLC0415
 
     imu, source = _read_imu(imu_path)
-    cols: dict[str, Any] = dict(imu_only_columns(imu, _imu_settings(imu_filter, offset_s or 0.0, calib)))
+    settings = _imu_settings(imu_filter, offset_s or 0.0, calib)
+    cols: dict[str, Any] = dict(imu_only_columns(imu, settings))
     from walkmon.gait.session import ImuInput  # noqa: PLC0415
 
-    cols["_imu_input"] = ImuInput(imu.t_s - imu.t_s[0], imu.accelerometer_m_s2, imu.gyroscope_rad_s)
+    cal = settings.accelerometer_calibration  # the filter's accelerometer, in the axes it took for the camera's
+    acc_camera = imu.accelerometer_m_s2 if cal is None else cal.correct(imu.accelerometer_m_s2)
+    cols["_imu_input"] = ImuInput(imu.t_s - imu.t_s[0], imu.accelerometer_m_s2, imu.gyroscope_rad_s,
+                                  acc_camera_m_s2=acc_camera)
     axes = _axes_note(imu.accelerometer_m_s2, str(imu_path)) if "telemetry" not in source else None
     info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter, **({"axes_warning": axes} if axes else {}),
             "accelerometer_calibration": None if calib is None else str(calib), "samples": len(imu.t_s),

@@ -137,6 +137,25 @@ def test_a_dragged_foot_and_back_is_a_posture_change_with_its_labels(tmp_path) -
     assert doc["bouts"][0]["asymmetry"]["step_time_ratio"] > 1.1  # the first bout: dragged foot, then normal
 
 
+def test_the_stance_after_a_walk_measures_the_sensors_tilt_from_the_accelerometer(tmp_path) -> None:
+    # Mid-walk start, a 3.5 s stop, walking on: the stop is the upright stance. The attitude filter's gravity lags
+    # seconds behind the stop (its median over the stance read -3.0 deg where the still trunk and sensor were at
+    # -0.4), and every inclination after it carried that: the second walk read +2.75 deg, truly -0.3.
+    import csv
+
+    doc, _, _ = _imu_session(tmp_path, "normal:10,pause:3.5,normal:15", seed=1)
+    with (tmp_path / "sim" / "truth_timeline.csv").open() as fh:
+        truth = [(float(r["t"]), float(r["trunk_pitch"])) for r in csv.DictReader(fh)]
+    ref = doc["upright_reference"]
+    assert ref["source"].startswith("first standing phase")
+    t0, t1 = (float(v) for v in ref["source"].split()[3].split("-"))
+    stance = [p for t, p in truth if t0 <= t <= t1]
+    assert ref["pitch_deg"] == pytest.approx(float(np.mean(stance)), abs=0.6)  # + the accelerometer's bias
+    last = doc["segments"][-1]
+    walk = [p for t, p in truth if last["start_s"] <= t <= last["end_s"]]
+    assert last["axes"]["pitch"]["inclination_mean"] == pytest.approx(float(np.mean(walk)), abs=0.75)
+
+
 @pytest.mark.parametrize("seed", [1, 2])
 def test_a_limp_seen_across_stops_is_labelled_on_the_bouts_evidence_together(tmp_path, seed: int) -> None:
     """Three short walks with a dragged foot, 4 s stops between them (three bouts): each has two steady pairs of

@@ -28,14 +28,15 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from walkmon.consts import AXES, angle_between_deg
+from walkmon.consts import AXES, angle_between_deg, gravity_angles_deg_from_gravity
 from walkmon.gait.activity import (
     DEFAULT_ACTIVITY_SETTINGS,
     ActivitySettings,
@@ -127,6 +128,10 @@ class ImuInput:
     t_s: NDArray[np.float64]
     acc_m_s2: NDArray[np.float64]
     gyro_rad_s: NDArray[np.float64] | None = None
+    #: the accelerometer as the attitude filter saw it (calibrated), when its axes are the angles' (an IMU alone:
+    #: its axes are taken as the camera's); None otherwise (a fused IMU in its own axes). The upright stance's
+    #: gravity is measured from it (:func:`_stance_gravity_deg`)
+    acc_camera_m_s2: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -959,7 +964,9 @@ def analyze_session(
         ref, ref_source, stand = _upright(t, a, seg, absd, s, tilt=tilt)
     ref_camera = ref if level is None else level_frame_angles(ref[None, :], level.T)[0]  # in the input's frame
     a, ref_out, ref_source, unc = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s,
-                                                down=v_level, vertical_deg=_vertical_uncertainty(vert, ref_camera))
+                                                down=v_level, vertical_deg=_vertical_uncertainty(vert, ref_camera),
+                                                stance_gravity=None if imu is None else partial(_stance_gravity_deg,
+                                                                                                imu))
     if not has_abs:
         ref_out = ref_camera[[0, 2]]  # the upright pose reported in the input's start-relative angles
     if unc is None and has_abs and stand is None and reference_deg is None and base is None \
@@ -1127,9 +1134,25 @@ def _start_down(a: NDArray, absd: NDArray) -> NDArray[np.float64] | None:
     return v / n if n > 0.5 else None
 
 
+def _stance_gravity_deg(imu: ImuInput, stand: tuple[float, float]) -> NDArray[np.float64] | None:
+    """Gravity's (pitch_abs, roll_abs) over a still stance from the mean of the accelerometer's samples in it;
+    None without the accelerometer in the angles' axes or with fewer than 3 samples there."""
+    acc = imu.acc_camera_m_s2
+    if acc is None:
+        return None
+    m = (imu.t_s >= stand[0]) & (imu.t_s <= stand[1]) & np.isfinite(acc).all(axis=1)
+    if m.sum() < 3:
+        return None
+    mean = np.mean(acc[m], axis=0)
+    if float(np.linalg.norm(mean)) < 1.0:  # no gravity in it: not an accelerometer in m/s^2
+        return None
+    return np.asarray(gravity_angles_deg_from_gravity(-mean), dtype=float)
+
+
 def _heading_free(
     t: NDArray, a: NDArray, absd: NDArray | None, ref: NDArray, ref_source: str, stand: tuple[float, float] | None,
     seg: Segmentation, s: SessionSettings, *, down: NDArray | None = None, vertical_deg: float = 0.0,
+    stance_gravity: Callable[[tuple[float, float]], NDArray[np.float64] | None] | None = None,
 ) -> tuple[NDArray, NDArray, str, ReferenceUncertainty | None]:
     """Heading-free inclinations: gravity's pitch/roll with an IMU (``absd``, when mostly finite), else the tilt
     from the upright pose (re-referenced at later still phases, :func:`_reference_model`). Returns the angles,
@@ -1139,11 +1162,16 @@ def _heading_free(
         ok = np.isfinite(absd).all(axis=1)
         gp = np.interp(t, t[ok], absd[ok, 0])
         gr = np.interp(t, t[ok], absd[ok, 1])
-        # the upright pose in gravity angles: the standing phase's, or level
+        # the upright pose in gravity angles: the standing phase's, or level. Measured by the accelerometer itself
+        # where it can be (still, it reads gravity alone): the attitude filter's gravity lags by seconds behind a
+        # stop, and its median over a stance right after walking read the sensor's tilt 1-3 deg off (user review:
+        # a simulated pause after a walk, -11.9 deg against the still accelerometer's -8.9; every later segment's
+        # pitch inclination read 3 deg high and normal walking 'unclassified')
         up_abs = np.zeros(2)
         if stand is not None:
             m = (t >= stand[0]) & (t <= stand[1])
-            up_abs = np.array([np.median(gp[m]), np.median(gr[m])])
+            measured = None if stance_gravity is None else stance_gravity(stand)
+            up_abs = measured if measured is not None else np.array([np.median(gp[m]), np.median(gr[m])])
         a = slow_offset(t, a, np.column_stack([gp - up_abs[0], a[:, 1], gr - up_abs[1]]))
         return a, up_abs, ref_source, None
     a = heading_free_angles(t, a, ref, down)
