@@ -227,6 +227,31 @@ def test_cadence_mends_missed_and_extra_steps() -> None:
     assert cadence_from_steps(truth) == pytest.approx(want, rel=0.005)  # regular steps: nothing to mend
 
 
+def test_a_short_stop_inside_a_bout_is_a_pause_not_a_missed_step() -> None:
+    """Three 4 s walks at 100 steps/min split by 0.7 s stops: each stop's interval (about 2.2 steps) used to be
+    mended as a missed heel strike, and the bout read 101.7 steps/min, above its steady pace, where the mean over
+    strides (the field's definition, stops under 3 s counted) is 93.8. A missed step among steps stays mended."""
+    fs, f = 100.0, 100.0 / 60.0
+    parts = [(False, 5.0), (True, 4.0), (False, 0.7), (True, 4.0), (False, 0.7), (True, 4.0), (False, 5.0)]
+    t = np.arange(0.0, sum(d for _, d in parts), 1.0 / fs)
+    dyn, steps, t0 = np.zeros_like(t), [], 0.0
+    for walking, d in parts:
+        m = (t >= t0) & (t < t0 + d)
+        if walking:
+            x = t[m] - t0
+            dyn[m] = 2.0 * np.sin(2 * np.pi * f * x) + 0.4 * np.sin(np.pi * f * x)
+            steps += [t0 + (i + 0.25) / f for i in range(20) if (i + 0.25) / f < d]
+        t0 += d
+    rng = np.random.default_rng(0)
+    acc = np.column_stack([0.05 * rng.standard_normal(t.size), -9.81 - dyn + 0.05 * rng.standard_normal(t.size),
+                           0.05 * rng.standard_normal(t.size)])
+    gyr = 0.002 * rng.standard_normal((t.size, 3))
+    seg = segment(signals_from_imu(t, acc, gyr))
+    (bout,) = seg.bouts
+    assert bout.n_steps == len(steps)
+    assert bout.cadence_spm == pytest.approx(_true_cadence(np.array(steps)), rel=0.01)
+
+
 def test_a_run_of_slow_steps_is_not_mended_an_isolated_long_one_is() -> None:
     """Slow steps in a turn (four of 1.0 s among steps of 0.55 s: 1.8 median steps each) are steps, as the
     reference counts them; mending them as missed steps read a real turning bout 55 % fast. One such interval

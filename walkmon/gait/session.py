@@ -818,7 +818,7 @@ def _steps_asymmetry(steps: NDArray[np.float64]) -> dict[str, float]:
 def span_indicators(
     t: NDArray, a: NDArray, t0: float, t1: float, ref: NDArray, sig_steps: NDArray, kind: str,
     settings: IndicatorSettings = DEFAULT_INDICATOR_SETTINGS, baseline: Mapping[str, Any] | None = None,
-    steady_steps: NDArray | None = None,
+    steady_steps: NDArray | None = None, sig: TrunkSignals | None = None,
 ) -> tuple[Indicators, dict[str, Any]]:
     """Indicators and classification of the walking span [t0, t1] of heading-free angles ``a`` (upright =
     ``ref``): the paper's swing/inclination, cadence from the steps in the span, asymmetry, and the one
@@ -832,7 +832,7 @@ def span_indicators(
     ind = analyze_gait(t[m], a[m], replace(settings, find_standing=False, min_walking_s=2.0),
                        reference_deg=ref).indicators
     spectral = ind.cadence_spm
-    cadence = cadence_from_steps(st, mend=kind != "angles") if st.size >= 3 else spectral
+    cadence = cadence_from_steps(st, mend=kind != "angles", sig=sig) if st.size >= 3 else spectral
     asym = dict(ind.asymmetry)
     if kind != "angles":  # detected steps of the IMU: their alternation is the better evidence
         steady = st if steady_steps is None else steady_steps[(steady_steps >= t0) & (steady_steps <= t1)]
@@ -1208,7 +1208,7 @@ def _bouts(
             edges = [p0, *cuts, p1]
             spans += [(q0, q1, i > 0) for i, (q0, q1) in enumerate(zip(edges[:-1], edges[1:], strict=True))]
         items = [span_indicators(t, a, q0, q1, ref_zero, seg.steps_s, sig.kind, settings, base,
-                                 steady_steps=seg.steady_steps_s) for q0, q1, _ in spans]
+                                 steady_steps=seg.steady_steps_s, sig=sig) for q0, q1, _ in spans]
         k = len(per_bout)
         per_bout.append((b, spans, items))
         for i, (_, _, at_cut) in enumerate(spans):
