@@ -45,3 +45,23 @@ def test_signals_recalibrate_and_stop_cleanly(tmp_path: Path) -> None:
     cal = read_session_table(conn, s.id, "calibrations")
     conn.close()
     assert cal["reason"] == ["start", "request"] and 3.0 < cal["t_s"][1] <= 6.1
+
+
+def test_a_camera_that_does_not_open_says_so_with_an_imu_too(tmp_path: Path, capsys) -> None:
+    # The IMU opened first, its reader thread made but not started, then the camera failed: the session's closing
+    # joined the unstarted thread and the camera's one-line error became "unexpected error: RuntimeError('cannot
+    # join thread before it is started')".
+    import numpy as np
+
+    from walkmon.commands.cli import main
+
+    imu = tmp_path / "imu.csv"
+    t = np.arange(0.0, 2.0, 0.01)
+    rows = [f"{v:.2f},0,0,0,0,-9.81,0" for v in t]
+    imu.write_text("t,gx,gy,gz,ax,ay,az\n" + "\n".join(rows) + "\n")
+    rc = main(["live", "--camera", "v4l2:/dev/walkmon-no-such-camera", "--imu", f"file:{imu}",
+               "--data-dir", str(tmp_path / "d"), "--status", "lines"])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert "no such device /dev/walkmon-no-such-camera" in err
+    assert "RuntimeError" not in err and "Traceback" not in err

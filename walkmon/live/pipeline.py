@@ -756,6 +756,8 @@ class LivePipeline:
         self._stop.set()
         self.notifier.stopping()
         for th in threads:
+            if th.ident is None:  # made but never started: a later step of the start failed (the camera's open)
+                continue
             th.join(_JOIN_TIMEOUT_S)
             if th.is_alive():
                 _log.error("thread %s did not stop within %.0f s", th.name, _JOIN_TIMEOUT_S)
