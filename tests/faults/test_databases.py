@@ -251,3 +251,22 @@ def test_sigkill_loses_at_most_the_last_flush(tmp_path: Path) -> None:
     finally:
         conn.close()
     assert n > 0  # what was committed survived; the session is 'running or cut off' and can be deleted with --force
+
+
+def test_the_export_keeps_each_hops_activity(tmp_path: Path) -> None:
+    # hops.csv had 'walking' and 'label' only: a turning, standing or sitting hop all read walking=0, not_walking
+    import csv
+
+    from walkmon.commands.sessions import export_session
+    from walkmon.live.session_log import SessionLog
+
+    log = SessionLog(tmp_path / "data", kind="analysis", camera="test", flush_interval_s=1.0)
+    truth = ["standing", "walking", "turning", "unknown", "walking"]
+    for i, act in enumerate(truth):
+        log.add_timeline_hop(i + 0.5, act, "normal" if act == "walking" else "", 1.0, 0.5, 100.0)
+    log.close("complete")
+    export_session(tmp_path / "data", 1, tmp_path / "e")
+    with (tmp_path / "e" / "hops.csv").open() as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["activity"] for r in rows] == truth
+    assert [r["walking"] for r in rows] == ["1" if a == "walking" else "0" for a in truth]
