@@ -276,6 +276,7 @@ class CsvLineParser:
         self._discarding = False
         self._stats = ParserStats()
         self._plausible = ImuPlausibility()
+        self._ahead = 0  # samples refused for a device time ahead of their own arrival
         self._clock = DeviceClock()
         self._device_timed: list[bool] = []  # per sample of the current read: timed by the device
         self._arrival = 0.0
@@ -283,6 +284,15 @@ class CsvLineParser:
     @property
     def stats(self) -> ParserStats:
         return self._stats
+
+    @property
+    def rejected(self) -> dict[str, int]:
+        """The implausible samples (``stats.implausible_samples``) by reason (:mod:`walkmon.drivers.imu_checks`'
+        reasons, and ``time_ahead_of_arrival``: a device time mapped after the line's own arrival)."""
+        out = dict(self._plausible.rejected)
+        if self._ahead:
+            out["time_ahead_of_arrival"] = self._ahead
+        return out
 
     def feed(self, data: bytes, t_s: float) -> list[ImuSample]:
         self._buffer.extend(data)
@@ -344,6 +354,7 @@ class CsvLineParser:
             ahead = self._clock.ahead(t_s, self._arrival)
             self._count(clock_restarts=self._clock.restarts - restarts)
             if ahead:
+                self._ahead += 1
                 self._count(good_packets=1, implausible_samples=1)
                 return None
         if not self._plausible.check(t_s, gyro, accel):

@@ -184,6 +184,11 @@ class SerialImu:
     def parser_stats(self) -> ParserStats:
         return self._parser.stats
 
+    @property
+    def rejected(self) -> dict[str, int]:
+        """Samples the parser refused as implausible, by reason ({} for a parser without such a check)."""
+        return dict(getattr(self._parser, "rejected", None) or {})
+
     def read(self, timeout_s: float = 0.2) -> ImuBatch:
         """All samples received so far (waiting up to ``timeout_s`` for the first one).
 

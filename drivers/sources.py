@@ -24,6 +24,7 @@ The factory only parses and constructs: nothing is opened (and no hardware probe
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import importlib
 import logging
@@ -196,10 +197,17 @@ class _SerialImuSource:
         self._imu = imu
         self._opened = False
         self._before: ParserStats | None = None  # the counts of the readers before this one (reconnections)
+        self._rejected_before: collections.Counter[str] = collections.Counter()
+
+    @property
+    def rejected(self) -> dict[str, int]:
+        """The samples the parsers refused as implausible, by reason, over the session (every reader's)."""
+        return dict(self._rejected_before + collections.Counter(getattr(self._imu, "rejected", None) or {}))
 
     def open(self) -> None:
         if self._opened:  # a reader runs once: a new one for the port (its parser and clock afresh)
             self._before = _sum_stats(self._before, self._imu.parser_stats)
+            self._rejected_before.update(getattr(self._imu, "rejected", None) or {})
             self._imu = type(self._imu)(self._imu.settings)
         self._imu.start()
         self._opened = True

@@ -60,6 +60,8 @@ def test_a_device_clock_lands_on_the_host_clock_whatever_it_does(case: str) -> N
     assert parser.stats.clock_restarts == {"reboot": 1, "wrap": 1}.get(case, 0)  # a glitch: 1 sample refused
     if case.startswith("glitch"):
         assert parser.stats.implausible_samples == 1
+        # the reason too, for the session's meta and end line (user review: 'imu_rejected: {}' beside the count)
+        assert sum(parser.rejected.values()) == 1
 
 
 def test_samples_of_one_read_are_spread_over_their_interval() -> None:

@@ -244,13 +244,19 @@ def test_live_session_follows_a_csv_imu_whose_clock_restarts(pty_pair, tmp_path,
     master, name, _ = pty_pair
     stop = threading.Event()
 
+    corrupted: list[float] = []
+
     def feed() -> None:
         t0 = time.monotonic()
         while not stop.is_set():
             t = time.monotonic() - t0
             device = 40.0 + t if t < 3.0 else t - 3.0  # rebooted 3 s in: its clock restarts at 0
+            gyro = "0.01"
+            if t >= 2.0 and not corrupted:  # one corrupted sample: counted and said, with its reason
+                gyro = "1e30"
+                corrupted.append(t)
             try:
-                os.write(master, f"{device:.4f},0.01,0,0,0.1,-9.81,0\n".encode())
+                os.write(master, f"{device:.4f},{gyro},0,0,0.1,-9.81,0\n".encode())
             except OSError:
                 return
             stop.wait(0.01)
@@ -272,6 +278,11 @@ def test_live_session_follows_a_csv_imu_whose_clock_restarts(pty_pair, tmp_path,
     after = [f for t, f in fused if t > 3.5]
     assert len(after) > 40 and sum(after) / len(after) > 0.9  # fused after the reboot too
     assert '"clock_restarts": 1' in meta
+    # the parser's refusals said, with their reasons (the corrupted sample; the reboot's samples before the restart
+    # was recognised)
+    (line,) = [ln for ln in out.splitlines() if "samples rejected as implausible" in ln]
+    assert "gyro_range 1" in line and "time_back" in line
+    assert '"gyro_range": 1' in meta
 
 
 def test_live_session_reopens_a_serial_imu_unplugged_and_plugged_back(tmp_path, capsys) -> None:  # noqa: ANN001
