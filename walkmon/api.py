@@ -722,6 +722,7 @@ def _same_recording(imu: Any, ft: NDArray[np.float64], visual: NDArray[np.float6
     offset."""
     from walkmon.imu.recordings import extrinsics_from_angles  # noqa: PLC0415
 
+    ext0 = ext  # about no offset
     if offset_s:
         try:
             ext = extrinsics_from_angles(imu, ft - offset_s, visual, ok)
@@ -729,14 +730,26 @@ def _same_recording(imu: Any, ft: NDArray[np.float64], visual: NDArray[np.float6
             return
     if ext is None or ext.n_intervals < 30:
         return
+    span = (float(imu.t_s[0]) + (offset_s or 0.0), float(imu.t_s[-1]) + (offset_s or 0.0))
     # a walk's rates follow any other walk's at a like cadence (correlation 0.53-0.72 between two simulated walks,
     # and a real person's IMU on one: review) but not after the best rotation between them: those left 14-22 deg/s
     # where a video's own IMU leaves 0.4-0.8 (simulated walks, the GoPro clip)
     mismatched = ext.correlation < MIN_RATE_CORRELATION or (
         ext.correlation < 0.9 and ext.residual_deg_s > MAX_OWN_RESIDUAL_DEG_S)
     if not mismatched:
+        # The video's own IMU at a wrong offset: a walk's rhythm lines up again a few steps off (user review:
+        # --imu-offset-s -1.5 and 1 read correlation 0.6-0.8, 5-7 deg/s apart, and were fused, every frame 'ok'
+        # with up to 5 deg of error), while without the offset the rates agreed (0.995, 0.6 deg/s apart)
+        if (offset_s and ext0 is not None and ext0.n_intervals >= 30 and ext0.correlation >= 0.9
+                and abs(ext0.time_offset_s - offset_s) > 0.5
+                and ext.residual_deg_s > max(2.0 * ext0.residual_deg_s, ext0.residual_deg_s + 2.0)
+                and _video_turn_rate_deg_s(ft, visual, ok, span) > MIN_VIDEO_RATE_DEG_S):
+            msg = (f"{name}: the IMU's rotation follows the video's at a clock offset of {ext0.time_offset_s:+.2f} s "
+                   f"(rate correlation {ext0.correlation:.2f}, {ext0.residual_deg_s:.1f} deg/s apart), not at "
+                   f"--imu-offset-s {offset_s:g} ({ext.correlation:.2f}, {ext.residual_deg_s:.1f} deg/s apart): "
+                   "check the offset")
+            raise InvalidInputError(msg)
         return
-    span = (float(imu.t_s[0]) + (offset_s or 0.0), float(imu.t_s[-1]) + (offset_s or 0.0))
     rate = _video_turn_rate_deg_s(ft, visual, ok, span)
     if rate > MIN_VIDEO_RATE_DEG_S:
         msg = (f"{name}: the IMU's rotation does not follow the video's (the video turns at {rate:.0f} deg/s RMS; "

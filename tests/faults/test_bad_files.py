@@ -328,6 +328,29 @@ def test_imu_covering_part_of_the_video_fuses_and_writes_valid_json(walk: Path, 
     res.one_line_error("does not follow the video", "--imu-offset-s")
 
 
+@pytest.fixture(scope="module")
+def walk_10s(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """10 s (2 s standing, 6 s walking, 2 s standing) at 160x120: video.mp4, imu.csv."""
+    import subprocess
+    import sys
+
+    out = tmp_path_factory.mktemp("walk_10s")
+    subprocess.run([sys.executable, "-m", "walkmon", "simulate", "--seconds", "10", "--seed", "2", "--width", "160",
+                    "--height", "120", "--out", str(out)], check=True, capture_output=True, timeout=300)
+    return out
+
+
+@pytest.mark.parametrize("offset", ["-1.5", "1"])
+def test_a_clock_offset_a_few_steps_off_is_refused(walk_10s: Path, tmp_path: Path, cli, offset: str) -> None:
+    """The video's own IMU with --imu-offset-s 1-1.5 s off: the walk's rhythm lines up again a few steps off
+    (correlation 0.6-0.8), and it was fused with every frame 'ok' and up to 5 deg of error (user review); the rates
+    agree without the offset (0.99). Refused, naming the offset they agree at."""
+    res = cli("analyze", walk_10s / "video.mp4", "--imu", walk_10s / "imu.csv", f"--imu-offset-s={offset}",
+              "--out", tmp_path / "out", "--no-progress")
+    res.one_line_error("follows the video's at a clock offset of", "not at --imu-offset-s")
+    assert not (tmp_path / "out" / "angles.csv").exists()
+
+
 @pytest.mark.parametrize("offset", ["nan", "inf", "1e999"])
 def test_non_finite_imu_offset_is_a_usage_error(walk: Path, tmp_path: Path, cli, offset: str) -> None:
     res = cli("analyze", walk / "video.mp4", "--imu", walk / "imu.csv", "--imu-offset-s", offset,
