@@ -72,7 +72,16 @@ def prepare_dir(path: str | Path) -> Path:
             msg = f"{p}: exists and is not a folder"
             raise InvalidInputError(msg)
         return p
-    p.mkdir(mode=DIR_MODE, parents=True, exist_ok=True)
+    # each missing folder made 0700 (mkdir(parents=True) gives the parents the umask's mode: 0755 under umask 022,
+    # user review), the nearest existing one left as it is
+    missing = [p]
+    while not missing[-1].parent.exists() and missing[-1].parent != missing[-1]:
+        missing.append(missing[-1].parent)
+    for d in reversed(missing):
+        check_not_symlink(d, "output folder")
+        d.mkdir(mode=DIR_MODE, exist_ok=True)
+        if (d.stat().st_mode & 0o777) != DIR_MODE:
+            os.chmod(d, DIR_MODE)  # a umask stricter than 0700 takes bits mkdir's mode asked for
     check_not_symlink(p, "output folder")  # raced in between: refuse
     return p
 

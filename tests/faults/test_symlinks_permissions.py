@@ -99,6 +99,24 @@ def test_batch_and_simulate_refuse_a_symlinked_output_folder(walk, tmp_path, cli
     assert out.is_symlink()
 
 
+@pytest.mark.parametrize("umask", [0o022, 0o277])
+def test_every_missing_parent_of_an_output_folder_is_made_private(tmp_path: Path, umask: int) -> None:
+    """User review: 'analyze --out nd1/nd2/out' under umask 022 made nd1 and nd1/nd2 0755 (only the last folder
+    0700); the README says output folders are made 0700. A umask stricter than 0700 must not lock walkmon out."""
+    from walkmon.safe_io import atomic_write, prepare_dir
+
+    old = os.umask(umask)
+    try:
+        prepare_dir(tmp_path / "a" / "b" / "c")
+        with atomic_write(tmp_path / "x" / "y" / "f.txt") as fh:
+            fh.write("ok")
+    finally:
+        os.umask(old)
+    for d in ("a", "a/b", "a/b/c", "x", "x/y"):
+        assert oct((tmp_path / d).stat().st_mode & 0o777) == "0o700", d
+    assert (tmp_path / "x" / "y" / "f.txt").read_text() == "ok"
+
+
 def test_simulate_writes_every_file_private_and_not_through_a_planted_link(tmp_path: Path, cli) -> None:
     """User review: under umask 022 'walkmon simulate' (and so 'walkmon demo') left video.mp4 and meta.json
     world-readable (OpenCV's writer and a plain write; every other file 0600), and the video went through a link

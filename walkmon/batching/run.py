@@ -160,7 +160,9 @@ def _check_out(out: Path) -> None:
 def _prepare_out(out: Path) -> Path:
     """Create OUT (private to the user: 0700) or check the existing one; returns it resolved."""
     _check_out(out)
-    out.mkdir(mode=0o700, parents=True, exist_ok=True)
+    from walkmon.safe_io import prepare_dir  # noqa: PLC0415
+
+    prepare_dir(out)  # every missing parent 0700 too
     out = out.resolve()
     for name in ("summary.parquet", "summary.csv", "bouts.parquet", "manifest.json"):
         if (out / name).is_symlink():

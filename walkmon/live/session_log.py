@@ -225,7 +225,9 @@ def _create_private(path: Path) -> None:
         msg = f"{path}: the session database is a symbolic link; refusing to write health data through it"
         raise InvalidInputError(msg)
     if not path.parent.exists():
-        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+        from walkmon.safe_io import prepare_dir  # noqa: PLC0415
+
+        prepare_dir(path.parent)  # every missing parent 0700 too
     if not path.exists():
         try:
             fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o600)

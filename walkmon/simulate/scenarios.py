@@ -181,7 +181,9 @@ def simulate_scenario(out_dir: str | Path, scenario: str, seed: int = 0, seconds
 
     session = ScenarioSession(scenario, seconds, seed, width, height, fps)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    from walkmon.safe_io import prepare_dir  # noqa: PLC0415
+
+    prepare_dir(out)
     write_table(out / "truth.csv", {k: np.round(v, 6) + 0.0 for k, v in session.truth().items()}, default_precision=6)
     write_camera_yaml(session.camera, out / "camera.yaml")
     _write_video(session, out / "video.mp4")
