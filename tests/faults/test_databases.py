@@ -270,3 +270,19 @@ def test_the_export_keeps_each_hops_activity(tmp_path: Path) -> None:
         rows = list(csv.DictReader(fh))
     assert [r["activity"] for r in rows] == truth
     assert [r["walking"] for r in rows] == ["1" if a == "walking" else "0" for a in truth]
+
+
+@pytest.mark.parametrize("case", ["file", "foreign", "under_a_file"])
+def test_analyze_save_refuses_an_unusable_data_folder_before_writing_anything(walk: Path, tmp_path: Path,
+                                                                              cli, case: str) -> None:
+    """User review: '--save --data-dir dbfile' wrote angles.csv, indicators.json, timeline.csv and report.html,
+    printed their success lines, then failed ('Not a directory') with exit 2: nothing is to be written then."""
+    bad = tmp_path / "dbfile"
+    bad.write_bytes(b"not a folder")
+    data = {"file": bad, "foreign": tmp_path / "other.sqlite", "under_a_file": bad / "sub" / "data"}[case]
+    if case == "foreign":
+        data.write_bytes(os.urandom(4096))
+    out = tmp_path / "out"
+    res = cli("analyze", "--imu", walk / "imu.csv", "--out", out, "--save", "--data-dir", data)
+    res.one_line_error(str(tmp_path))
+    assert not out.exists()

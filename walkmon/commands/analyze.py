@@ -74,6 +74,10 @@ def run(args: argparse.Namespace) -> int:
     from walkmon.api import analyze  # noqa: PLC0415
 
     out_dir = Path(args.out)
+    if args.save:  # a data folder that cannot hold the session refused before anything is analysed or written
+        from walkmon.live.session_log import check_database_usable, default_data_dir  # noqa: PLC0415
+
+        check_database_usable(Path(args.data_dir).expanduser() if args.data_dir else default_data_dir())
     progress = _Progress(0, enabled=False if args.no_progress or args.video is None else None)
     try:
         result = analyze(args.video, imu=args.imu, calib=args.calib, method=args.method, baseline=args.baseline,

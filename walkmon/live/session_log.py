@@ -40,6 +40,7 @@ __all__ = [
     "SCHEMA_VERSION",
     "SessionDeletedError",
     "SessionLog",
+    "check_database_usable",
     "check_session_id",
     "TABLE_COLUMNS",
     "SessionSummary",
@@ -234,6 +235,32 @@ def _create_private(path: Path) -> None:
         except FileExistsError:
             return  # another process created it meanwhile
         os.close(fd)
+
+
+def check_database_usable(data_dir: str | Path) -> Path:
+    """Refuse (one :class:`~walkmon.errors.InvalidInputError` line) a data folder the session database cannot be
+    written in, before any work whose result it is to hold (``analyze --save``: user review, every output was
+    written and success printed, then 'Not a directory' and exit 2). An existing database is opened (a foreign
+    or broken file refused); a missing one is not created: its nearest existing folder must be a writable
+    folder. Returns the database's path."""
+    import os  # noqa: PLC0415
+
+    path = _db_path(data_dir)
+    if path.exists() or path.is_symlink():
+        open_database(data_dir).close()
+        return path
+    up = path.parent
+    while not up.exists() and up.parent != up:
+        if up.is_symlink():
+            break
+        up = up.parent
+    if not up.is_dir():
+        msg = f"{up}: not a folder; the session database cannot be made in {path.parent}"
+        raise InvalidInputError(msg)
+    if not os.access(up, os.W_OK | os.X_OK):
+        msg = f"{up}: not writable; the session database cannot be made in {path.parent}"
+        raise InvalidInputError(msg)
+    return path
 
 
 def open_database(data_dir: str | Path, *, create: bool = True, read_only: bool = False) -> sqlite3.Connection:
