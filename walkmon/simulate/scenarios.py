@@ -185,7 +185,8 @@ def simulate_scenario(out_dir: str | Path, scenario: str, seed: int = 0, seconds
 
     prepare_dir(out)
     write_table(out / "truth.csv", {k: np.round(v, 6) + 0.0 for k, v in session.truth().items()}, default_precision=6)
-    write_camera_yaml(session.camera, out / "camera.yaml")
+    write_camera_yaml(dataclasses.replace(session.camera, readout_s=session.render_settings.rolling_shutter_s),
+                      out / "camera.yaml")  # the readout in the calibration, as a user's camera.yaml carries it
     _write_video(session, out / "video.mp4")
     (out / "meta.json").write_text(json.dumps(session.meta(), indent=2) + "\n", encoding="utf-8")
     return out
