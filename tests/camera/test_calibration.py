@@ -75,6 +75,23 @@ def test_calibration_with_wrong_board_size_is_a_clear_error(board_folder, tmp_pa
     assert "Traceback" not in err
 
 
+def test_images_of_different_sizes_are_refused_not_mixed(board_folder, tmp_path, capsys) -> None:
+    """User review: one 320x240 image among 640x480 ones gave exit 0 and a file saying 320x240 with a 640-wide
+    camera's intrinsics (fx 440 for 457), which 'analyze' then scaled: 4 deg errors on frames reported ok."""
+    import shutil
+
+    folder, _ = board_folder
+    mixed = tmp_path / "mixed"
+    shutil.copytree(folder, mixed)
+    small = cv2.resize(cv2.imread(str(mixed / "view_00.png")), (320, 240))
+    cv2.imwrite(str(mixed / "zz_small.png"), small)
+    rc = main(["calibrate", str(mixed), "--board", "9x6", "--out", str(tmp_path / "cam.yaml"), "--no-progress"])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1
+    assert "different sizes" in err and "640x480 (15)" in err and "320x240 (1)" in err
+    assert not (tmp_path / "cam.yaml").exists()
+
+
 def test_simulator_camera_yaml_round_trip(tmp_path, true_camera) -> None:
     path = tmp_path / "camera.yaml"
     write_camera_yaml(true_camera, path)
