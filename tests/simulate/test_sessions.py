@@ -400,3 +400,15 @@ def test_a_rolling_shutter_clips_calibration_carries_its_readout(tmp_path) -> No
     rendered = json.loads((tmp_path / "s" / "meta.json").read_text())["render"]["rolling_shutter_s"]
     assert rendered == 0.03
     assert read_camera_yaml(tmp_path / "s" / "camera.yaml").readout_s == rendered
+
+
+def test_an_odd_image_size_is_refused(tmp_path, capsys) -> None:
+    """User review: '--width 321 --height 241' printed and wrote a 321x241 camera.yaml beside a 320x240 video (the
+    encoder made it even), and analyze then scaled the intrinsics."""
+    from walkmon.commands.cli import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "--walk", "normal:1", "--width", "321", "--height", "240", "--out", str(tmp_path / "s")])
+    assert exc.value.code == 2
+    assert "must be even" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()

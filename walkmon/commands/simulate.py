@@ -19,6 +19,16 @@ _WALK_HELP = (
 )
 
 
+def _even_size(text: str) -> int:
+    """A positive, even image size: the video encoder makes an odd one even (user review: '--width 321' printed and
+    wrote a 321x241 camera.yaml beside a 320x240 video)."""
+    value = _positive_int(text)
+    if value % 2:
+        msg = f"must be even (a video's width and height are), got {value}"
+        raise argparse.ArgumentTypeError(msg)
+    return value
+
+
 def _positive_int(text: str) -> int:
     try:
         value = int(text)
@@ -61,8 +71,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="session length incl. standing, for a single walk type (default 16)")
     p.add_argument("--seed", type=_seed, default=0, help="random seed: same seed, same session (default 0)")
     p.add_argument("--out", required=True, help="output folder (created; files in it are overwritten)")
-    p.add_argument("--width", type=_positive_int, default=640, help="image width in pixels (default 640)")
-    p.add_argument("--height", type=_positive_int, default=480, help="image height in pixels (default 480)")
+    p.add_argument("--width", type=_even_size, default=640, help="image width in pixels, even (default 640)")
+    p.add_argument("--height", type=_even_size, default=480, help="image height in pixels, even (default 480)")
     p.add_argument("--fps", type=_positive_float, default=30.0, help="frame rate (default 30)")
     p.add_argument("--distortion", action="store_true", help="render through a lens with barrel distortion")
     p.add_argument("--rolling-shutter-ms", type=float, default=0.0, metavar="MS",
