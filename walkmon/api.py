@@ -347,7 +347,21 @@ def measured_rows(model: ArrayLike | Sequence[str] | None, fused: ArrayLike | No
     return ~held
 
 
-def _gait_stage(
+def _gait_stage(columns: Mapping[str, Any], **kwargs: Any) -> Analysis:
+    """:func:`_gait_stage_of` with its refusals naming the input (user review: an image given as a video said only
+    'need at least 10 samples, got 1', a CSV with a repeated time 'times must be ... increasing', no file)."""
+    try:
+        return _gait_stage_of(columns, **kwargs)
+    except InvalidInputError as exc:
+        meta = kwargs.get("meta") or {}
+        name = kwargs.get("source") or meta.get("input") or meta.get("video")
+        if not name or str(name) in str(exc):
+            raise
+        msg = f"{name}: {exc}"
+        raise InvalidInputError(msg) from None
+
+
+def _gait_stage_of(
     columns: Mapping[str, Any],
     *,
     baseline: Any,

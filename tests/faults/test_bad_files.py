@@ -600,3 +600,22 @@ def test_calibrate_on_a_cut_video_prints_one_line_and_has_no_progress_option(wal
         assert res.returncode == 2
         assert len(res.stderr.strip().splitlines()) == 1, res.stderr
         assert "cannot open as a video" in res.stderr  # the video's fault, the option known
+
+
+def test_an_image_given_as_a_video_is_named_too_short(tmp_path: Path, cli) -> None:
+    """User review: 'need at least 10 samples, got 1', neither the file nor the problem named."""
+    import cv2
+
+    img = tmp_path / "photo.png"
+    cv2.imwrite(str(img), np.random.default_rng(0).integers(0, 255, (120, 160, 3), dtype=np.uint8))  # textured
+    res = cli("analyze", img, "--out", tmp_path / "out", "--no-progress")
+    res.one_line_error(str(img), "too short to analyse: 1 sample(s) or frame(s)")
+
+
+def test_a_repeated_time_in_an_angles_csv_is_named_with_its_row(tmp_path: Path, cli) -> None:
+    """User review: 'times must be finite and strictly increasing', no file, no row."""
+    rows = [f"{i / 10:.1f},0,0,0" for i in range(31)] + ["3.0,0,0,0"]
+    path = tmp_path / "dup.csv"
+    path.write_text("t,pitch,yaw,roll\n" + "\n".join(rows) + "\n")
+    res = cli("indicators", path, "--out", tmp_path / "out")
+    res.one_line_error(str(path), "sample 32 has t=3 after t=3")

@@ -413,7 +413,7 @@ def test_video_angles_give_steps_and_bouts() -> None:
 def test_bad_input_is_one_clear_error() -> None:
     with pytest.raises(InvalidInputError, match="at least 10"):
         signals_from_imu(np.arange(5.0), np.zeros((5, 3)))
-    with pytest.raises(InvalidInputError, match="increasing"):
+    with pytest.raises(InvalidInputError, match="strictly increase: sample 11 has t=5 after t=9"):
         signals_from_imu(np.r_[np.arange(10.0), 5.0], np.zeros((11, 3)))
     with pytest.raises(InvalidInputError, match="finite"):
         signals_from_imu(np.arange(20.0), np.full((20, 3), np.nan))

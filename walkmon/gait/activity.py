@@ -405,10 +405,16 @@ MAX_SPAN_S = 48 * 3600.0
 def _check(t: ArrayLike, *arrays: ArrayLike) -> NDArray[np.float64]:
     tt = np.asarray(t, dtype=float)
     if tt.ndim != 1 or tt.size < 10:
-        msg = f"need at least 10 samples, got {tt.size}"
+        msg = (f"too short to analyse: {tt.size} sample(s) or frame(s), at least 10 needed (an image or a clip of "
+               "a few frames is no recording of a walk)")
         raise InvalidInputError(msg)
-    if np.any(np.diff(tt) <= 0) or not np.all(np.isfinite(tt)):
-        msg = "times must be finite and strictly increasing"
+    if not np.all(np.isfinite(tt)):
+        i = int(np.flatnonzero(~np.isfinite(tt))[0])
+        msg = f"times must be finite: sample {i + 1} has t={tt[i]}"
+        raise InvalidInputError(msg)
+    if np.any(np.diff(tt) <= 0):
+        i = int(np.flatnonzero(np.diff(tt) <= 0)[0])
+        msg = f"times must strictly increase: sample {i + 2} has t={tt[i + 1]:.9g} after t={tt[i]:.9g}"
         raise InvalidInputError(msg)
     span = float(tt[-1] - tt[0])
     if span > MAX_SPAN_S:
