@@ -106,6 +106,7 @@ class VideoFile:
         self._eof = False
         self._pts0_s: float | None = None  # the presentation time that is t = 0 (moved by a new time line)
         self._last_t_s = 0.0  # the frame before's time
+        self._skipped_s = 0.0  # forward jumps over max_interval_s that became a new time line (a pause in the file)
         self._good_t_s = 0.0  # the last frame whose own time was used
         self._reported = False
         #: frames whose container time was unusable (none, going back, off the frames either side: module docstring)
@@ -149,8 +150,12 @@ class VideoFile:
         if self._decoded == 0:
             msg = f"{self.path}: no decodable frames (corrupt or empty video)"
             raise SourceError(msg)
-        span = self._last_t_s + 1.0 / self.fps  # the frames' time (a container's count may be an estimate from its
-        expected = self.frame_count / self.fps  # duration, as an MPEG-TS's is)
+        # the frames' time (a container's count may be an estimate from its duration, as an MPEG-TS's is), with the
+        # pauses forward over max_interval_s that became new time lines: the duration an MKV's or a TS's count comes
+        # from holds them (user review: a 1.2 s gap in an MKV, whole, refused as damaged; the same frames in an MP4,
+        # whose count is the frames', analysed)
+        span = self._last_t_s + self._skipped_s + 1.0 / self.fps
+        expected = self.frame_count / self.fps
         if (self._decoded < self.frame_count - max(2, self.frame_count // 100)
                 and span < expected - max(2.0 / self.fps, 0.01 * expected)):
             # the container lists more frames than could be decoded: damaged mid-file. Analysing the first part as
@@ -190,6 +195,7 @@ class VideoFile:
             # the frames after follow on from this one, not from the frames before: a new time line (joined files,
             # a reset clock); it goes on from here with its own intervals
             t = last + step
+            self._skipped_s += max(0.0, (pts - self._pts0_s) - t)  # a pause forward, not a clock gone back
             self._pts0_s = pts - t
             self._good_t_s = t
         else:

@@ -155,6 +155,20 @@ def test_a_corrupt_late_time_does_not_hide_a_damaged_file(tmp_path: Path) -> Non
             pass
 
 
+@pytest.mark.parametrize("fmt", ["mpegts", "matroska"])
+def test_a_whole_file_with_a_pause_over_a_second_is_not_damaged(tmp_path: Path, fmt: str) -> None:
+    """User review: an MKV or MPEG-TS whose frames pause 1.2 s (frames 150-185 of 300 dropped) was refused as
+    'damaged: decoding failed at frame 264 of 300': its frame count comes from its duration, and the pause, a new
+    time line to the frames' times, was missing from the span checked against it. The same frames in an MP4 read."""
+    times = [k / 30 for k in range(300) if not 150 <= k < 186]
+    frames = [np.full((48, 64, 3), (7 * k) % 255, np.uint8) for k in range(len(times))]
+    path = tmp_path / ("gap.ts" if fmt == "mpegts" else "gap.mkv")
+    write_video(path, frames, times, fmt=fmt)
+    with VideoFile(path) as video:
+        got = [t for t, _ in video]
+    assert len(got) == len(times)
+
+
 def test_a_time_lapse_below_one_frame_a_second_keeps_its_times(tmp_path: Path) -> None:
     """Review case: a 0.5 fps video was taken for a broken container rate (30 fps assumed) and its 2 s intervals
     for corrupt times (60 x too fast)."""
