@@ -581,3 +581,23 @@ def test_max_gap_must_be_shorter_than_the_window() -> None:
         LiveIndicatorSettings(max_gap_s=8.0)
     with pytest.raises(ValueError, match="max_gap_s must be > 0"):
         LiveIndicatorSettings(max_gap_s=0.0)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_sitting_still_after_a_walk_is_not_standing(seed: int) -> None:
+    """User review: hops of a wearer seated still (the chest 27-30 deg from upright, truth 'unknown') were logged
+    'standing', which the dashboard, history and report counted as standing; the offline timeline's rule (still
+    but tilted > still_tilt_deg from upright: sitting, lying or bent down) now holds live too."""
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("stand:4,normal:8,sit:14,normal:6", seed=seed)
+    t = np.arange(0, model.duration_s, 1 / FPS)
+    a = model.truth_angles_deg(t) + np.random.default_rng(2).normal(0, 0.02, (t.size, 3))
+    sit = next(p for p in model.pieces if p.activity == "unknown")
+    truth = model.truth_angles_deg(np.array([sit.start_s + 0.5 * (sit.end_s - sit.start_s)]))[0]
+    assert abs(truth[0]) > 20.0  # the simulator's seated chest
+    out = run_stage(t, a)
+    seated = [r for r in out if sit.start_s + 4.0 <= r.t_s <= sit.end_s - 2.0]
+    assert seated and all(r.activity == "unknown" for r in seated), [(r.t_s, r.activity) for r in seated]
+    stood = [r for r in out if 2.0 <= r.t_s <= 3.5]
+    assert stood and all(r.activity == "standing" for r in stood)  # the upright stance stays standing

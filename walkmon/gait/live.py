@@ -720,6 +720,13 @@ class LiveIndicatorStage:
         doubt_pitch, doubt_roll = self._posture_doubt_deg(t, recent) if recent.any() else (0.0, 0.0)
         if self._rejected is not None:
             posture = (math.nan, posture[1], math.nan)
+        tilted = [abs(v) for v in (posture[0], posture[2]) if math.isfinite(v)]
+        if activity == "standing" and tilted and max(tilted) > s.still_tilt_deg:
+            # still but tilted from upright: sitting, lying or bent down, as the offline timeline says (user review:
+            # a seated wearer, the chest 27-30 deg from upright, was logged standing)
+            activity = "unknown"
+            reasons = (f"activity unknown: still but {max(tilted):.0f} deg from upright (sitting, lying or bent "
+                       "down?)",)
         event = self._pending_events.popleft() if self._pending_events else None
         return LiveIndicators(
             t_s=float(t_now),
