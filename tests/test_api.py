@@ -195,3 +195,34 @@ def test_an_imu_file_in_another_sensors_axes_is_said(clip, tmp_path: Path, caplo
     assert any("90 deg from the camera axes' up" in r.getMessage() for r in caplog.records)
     assert "another sensor's own axes" in x_up.imu_info["axes_warning"]
     assert [b["n_steps"] for b in x_up.indicators["bouts"]] == [b["n_steps"] for b in plain.indicators["bouts"]]
+
+
+def test_a_logged_sessions_report_does_not_keep_a_calibration_the_monitor_rejected(tmp_path: Path) -> None:
+    """User review: the live monitor calibrated while the wearer sat (the chest 30 deg from upright), rejected that
+    stance once the walking read far from it and retook the reference standing; 'walkmon report ID' kept the first
+    one for the whole session and read every normal walk 'bend', where the live hops, 'analyze' and the truth say
+    normal. The report now finds the session's own standing phases; the live calibration only where none."""
+    from walkmon.gait.live import CalibrationEvent
+    from walkmon.live.session_log import SessionLog
+    from walkmon.simulate.gait import GaitModel
+
+    model = GaitModel("sit:12,normal:14,pause:3,normal:6", seed=2)
+    t = np.arange(0.0, model.duration_s, 1 / 30)
+    a = model.truth_angles_deg(t) + np.random.default_rng(1).normal(0.0, 0.02, (t.size, 3))
+    log = SessionLog(tmp_path / "db", kind="live", camera="test", flush_interval_s=1.0)
+    for ti, ai in zip(t, a, strict=True):
+        log.add_frame(float(ti), tuple(ai), 80, "rotation", "ok", 5.0)
+    seated = model.truth_angles_deg(np.array([3.9]))[0]
+    assert seated[0] > 20.0  # the simulator's seated chest
+    log.add_calibration(CalibrationEvent(3.9, tuple(seated), "start", 2.0))
+    pause = next(p for p in model.pieces if p.activity == "standing" and p.start_s > 14.0)
+    upright = model.truth_angles_deg(np.array([pause.end_s - 0.5]))[0]
+    log.add_calibration(CalibrationEvent(pause.end_s - 0.5, tuple(upright), "posture", 2.0))
+    sid = log.session_id
+    log.close("complete")
+    doc = walkmon.load_session(sid, tmp_path / "db").analyze().indicators
+    walks = [p for p in model.pieces if p.activity == "walking"]
+    for p in walks:
+        mid = 0.5 * (p.start_s + p.end_s)
+        labels = {s["label"] for s in doc["segments"] if s["start_s"] <= mid <= s["end_s"]}
+        assert labels == {"normal"}, (p, doc["segments"])

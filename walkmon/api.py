@@ -971,7 +971,8 @@ class Session:
 
     def analyze(self, *, baseline: Any = None) -> Analysis:
         """The offline analysis of the session's frames (what ``walkmon report ID`` writes): indicators relative
-        to its first standing calibration, if any, and the fused absolute angles when an IMU was fused."""
+        to the session's own standing phases as ``walkmon analyze`` finds them (the live monitor's calibration
+        where it has none), and the fused absolute angles when an IMU was fused."""
         t = np.asarray(self.frames["t_s"], dtype=float)
         t0 = float(t[0]) if t.size else 0.0  # the session's start, held frames or not
         a = (np.column_stack([self.frames[c] for c in ("pitch", "yaw", "roll")]).astype(float) if t.size
@@ -997,8 +998,6 @@ class Session:
             msg = (f"session {self.id}: the angles of an accelerometer alone, saved without its samples: they hold "
                    "no steps; analyse the accelerometer's file again with 'walkmon analyze --imu FILE --save'")
             raise InvalidInputError(msg)
-        cal = self.calibrations
-        reference = np.array([cal["pitch"][0], cal["yaw"][0], cal["roll"][0]], dtype=float) if len(cal) else None
         r = self.record
         meta = {"session": self.id, "kind": r["kind"], "source": r["camera"], "started_utc": r["started_utc"],
                 "ended_utc": r["ended_utc"], "end_reason": r["end_reason"], "frames": int(t.size)}
@@ -1007,8 +1006,30 @@ class Session:
             columns.update(pitch_abs=absolute[:, 0], roll_abs=absolute[:, 1])
         saved = r.get("meta") if isinstance(r.get("meta"), Mapping) else {}
         axes = saved.get("axes_warning") if isinstance(saved, Mapping) else None  # a saved analysis's (see save)
-        return _gait_stage(columns, baseline=baseline, mode="walkmon", reference_deg=reference, meta=meta,
-                           imu_input=imu_input, no_yaw=no_yaw, no_posture=str(axes) if axes else None)
+        kw: dict[str, Any] = {"baseline": baseline, "mode": "walkmon", "meta": meta, "imu_input": imu_input,
+                              "no_yaw": no_yaw, "no_posture": str(axes) if axes else None}
+        # The session's own standing phases and pauses first, as 'walkmon analyze' finds them (and re-references
+        # after turns from); the live monitor's calibration only where the recording has none and the analysis
+        # would assume the first stride upright. Until 2026-11-28 the first calibration logged was the reference
+        # of the whole session, even one the monitor itself rejected later (user review: taken while seated, every
+        # normal walk read 'bend'; one taken after a turn left the rest 'uncertain across the turn').
+        analysis = _gait_stage(columns, reference_deg=None, **kw)
+        reference = self._live_reference()
+        source = str((analysis.indicators.get("upright_reference") or {}).get("source", ""))
+        if reference is not None and "assumed upright" in source:
+            analysis = _gait_stage(columns, reference_deg=reference, **kw)
+        return analysis
+
+    def _live_reference(self) -> NDArray[np.float64] | None:
+        """The live monitor's upright reference to fall back on: the last one it took because the one before was
+        no standing stance (reason 'posture'), else its first; None without any (a 'pause' re-reference is a
+        drifted video's pose after a turn, no upright stance for the whole session)."""
+        cal = self.calibrations
+        if not len(cal):
+            return None
+        reasons = [str(v) for v in cal["reason"]]
+        i = max((k for k, why in enumerate(reasons) if why == "posture"), default=0)
+        return np.array([cal["pitch"][i], cal["yaw"][i], cal["roll"][i]], dtype=float)
 
     def _imu_input(self, t0: float) -> Any:
         """The raw IMU samples an offline analysis stored (:meth:`Analysis.save`), on the frames' time base less
