@@ -252,6 +252,26 @@ def test_a_short_stop_inside_a_bout_is_a_pause_not_a_missed_step() -> None:
     assert bout.cadence_spm == pytest.approx(_true_cadence(np.array(steps)), rel=0.01)
 
 
+def test_no_stride_across_a_hole_in_the_samples_counts_in_the_cadence() -> None:
+    """A 0.95 s dropout mid-walk (under the 1 s that splits bouts): the resampled line across it hid two steps, the
+    stride over them counted as one slow stride and the bout read 2 % slow (user review). Strides across such a
+    hole are left out; the walk's steady 100 steps/min is what the bout reads."""
+    fs, f = 100.0, 100.0 / 60.0
+    t = np.arange(0.0, 20.0, 1.0 / fs)
+    walking = (t >= 3.0) & (t < 17.0)
+    x = t - 3.0
+    dyn = np.where(walking, 2.0 * np.sin(2 * np.pi * f * x) + 0.4 * np.sin(np.pi * f * x), 0.0)
+    rng = np.random.default_rng(1)
+    acc = np.column_stack([0.05 * rng.standard_normal(t.size), -9.81 - dyn + 0.05 * rng.standard_normal(t.size),
+                           0.05 * rng.standard_normal(t.size)])
+    gyr = 0.002 * rng.standard_normal((t.size, 3))
+    keep = (t < 9.3) | (t >= 10.25)  # two steps' peaks inside: the interval across, 2.6 steps, is no missed step
+    seg = segment(signals_from_imu(t[keep], acc[keep], gyr[keep]))
+    (bout,) = seg.bouts
+    assert bout.start_s < 9.3 < 10.25 < bout.end_s  # one bout across the hole (shorter than a gap)
+    assert bout.cadence_spm == pytest.approx(100.0, rel=0.005)
+
+
 def test_a_run_of_slow_steps_is_not_mended_an_isolated_long_one_is() -> None:
     """Slow steps in a turn (four of 1.0 s among steps of 0.55 s: 1.8 median steps each) are steps, as the
     reference counts them; mending them as missed steps read a real turning bout 55 % fast. One such interval
