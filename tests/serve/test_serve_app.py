@@ -82,6 +82,23 @@ def test_session_values_are_the_hand_counts_of_its_hops(db: Path) -> None:
     assert "Compared with" not in page  # Ann has no earlier session
 
 
+def test_a_session_of_no_one_is_compared_only_with_others_of_no_one(tmp_path: Path, write_session: Any,
+                                                                      make_hop: Any) -> None:
+    """User review: a session without a person read 'Compared with the 1 earlier session ... cadence 115', which was
+    alice's; and 0.3 min of walking read '(0 min walking)'."""
+    data = tmp_path / "data"
+    walk = [make_hop(float(t), walking=True, pitch=0.0, roll=0.0, cadence=115.0) for t in range(1, 19)]
+    write_session(data, walk, person="alice", started_utc="2026-11-20T10:00:00+00:00")
+    write_session(data, [make_hop(float(t), walking=True, pitch=0.0, roll=0.0, cadence=100.0) for t in range(1, 21)],
+                  started_utc="2026-11-21T10:00:00+00:00")
+    assert "Compared with" not in client(data).get("/sessions/2").text  # alice's is no one's baseline
+    write_session(data, [make_hop(float(t), walking=True, pitch=0.0, roll=0.0, cadence=104.0) for t in range(1, 21)],
+                  person="alice", started_utc="2026-11-22T10:00:00+00:00")
+    page = client(data).get("/sessions/3").text
+    assert "alice&#39;s 1 earlier session of the 30 days before (0.3 min walking)" in page
+    assert "cadence 115 steps/min (now 104)" in page
+
+
 def test_history_per_local_day(tmp_path: Path, write_session: Any, make_hop: Any,
                                monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("TZ", "Pacific/Auckland")  # UTC+13 in January

@@ -249,9 +249,12 @@ def _baseline(store: Store, s: SessionStats) -> tuple[Any, str]:
         return None, ""
     if start.tzinfo is None:
         start = start.replace(tzinfo=_dt.UTC)
+    # the same person only: a session without a person among those without one (the store's None is no filter:
+    # user review, a session of no one was compared with alice's)
     earlier = [x for x in store.session_stats(since=_dt.timedelta(days=30), person=s.person or None,
                                               now_utc=start + _dt.timedelta(seconds=0))
-               if x.id != s.id and x.started_utc < s.started_utc and x.walking_s > 0]
+               if x.id != s.id and x.started_utc < s.started_utc and x.walking_s > 0
+               and (x.person or "") == (s.person or "")]
     if not earlier:
         return None, ""
     days = daily(earlier)
@@ -263,8 +266,9 @@ def _baseline(store: Store, s: SessionStats) -> tuple[Any, str]:
         pitch_deg = _wmean([(d.pitch_deg, d.walking_min) for d in days])
 
     who = f"{s.person}'s" if s.person else "the"
+    amount = f"{walking:.1f}" if walking < 10 else f"{walking:.0f}"  # 0.3 min read '0 min walking' (review)
     return _Agg(), f"{who} {len(earlier)} earlier session{'s' if len(earlier) != 1 else ''} of the 30 days before " \
-                   f"({walking:.0f} min walking)"
+                   f"({amount} min walking)"
 
 
 def _wmean(pairs: list[tuple[float, float]]) -> float:
