@@ -132,11 +132,13 @@ def test_an_imu_in_another_sensors_axes_reports_no_posture(tmp_path: Path) -> No
     assert {r[3] for r in rows} == {"nan"} and {r[4] for r in rows} == {"nan"}
     report = (tmp_path / "out" / "report.html").read_text()
     assert "% upright" not in report and "another sensor" in report
+    assert "Absolute pitch and roll" not in report and "pitch_abs mean" not in report  # (review: -88 deg printed)
     # the saved session's report, which analyses its stored IMU again (review: it had posture back, 9 % upright)
     assert main(["report", "1", "--data-dir", str(tmp_path / "db"), "--out", str(tmp_path / "rep")]) == 0
     again = json.loads((tmp_path / "rep" / "indicators.json").read_text())
     assert again["axes"]["pitch"]["inclination_mean"] is None and again["classification"]["label"] == "unclassified"
     assert "% upright" not in (tmp_path / "rep" / "report.html").read_text()
+    assert "pitch_abs mean" not in (tmp_path / "rep" / "report.html").read_text()
 
 
 def test_indicators_on_an_imu_analysis_angles_says_where_its_steps_come_from(

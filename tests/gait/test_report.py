@@ -127,7 +127,7 @@ def test_indicators_cli_reports_the_absolute_angles_of_an_imu_angles_csv(tmp_pat
                       "roll_abs": roll_abs, "visual_used": ["1"] * len(t), "model": ["rotation"] * len(t)})
     assert main(["indicators", str(csv), "--out", str(tmp_path / "imu")]) == 0
     html = (tmp_path / "imu" / "report.html").read_text()
-    assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
+    assert "<h2>Absolute pitch and roll (against gravity)</h2>" in html
     n = len(t)
     assert f"<tr><td>frames with absolute angles</td><td>{n - 30} of {n}</td></tr>" in html
     assert f"<tr><td>pitch_abs mean [deg]</td><td>{np.mean(pitch_abs[30:]):.3f}</td></tr>" in html

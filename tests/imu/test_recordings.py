@@ -45,7 +45,7 @@ def test_imu_only_analysis_writes_angles_close_to_truth(session: Path, tmp_path:
     assert info["mode"] == "imu_only" and info["imu_filter"] == "vqf"
     assert (out / "indicators.json").is_file() and (out / "report.html").is_file()
     html = (out / "report.html").read_text()
-    assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
+    assert "<h2>Absolute pitch and roll (against gravity)</h2>" in html
     assert f"<tr><td>frames with absolute angles</td><td>{len(cols['t'])} of {len(cols['t'])}</td></tr>" in html
 
 

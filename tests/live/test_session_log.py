@@ -118,8 +118,8 @@ def test_report_from_the_database_plots_the_absolute_angles_of_a_fused_session(
         sid = log.session_id
     assert main(["report", str(sid), "--out", str(tmp_path / "fused"), "--data-dir", str(data)]) == 0
     html = (tmp_path / "fused" / "report.html").read_text()
-    assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
-    assert "alt='Absolute pitch and roll (IMU fusion)' src='data:image/png;base64," in html
+    assert "<h2>Absolute pitch and roll (against gravity)</h2>" in html
+    assert "alt='Absolute pitch and roll (against gravity)' src='data:image/png;base64," in html
     assert f"<tr><td>frames with absolute angles</td><td>{fused.sum()} of {t.size}</td></tr>" in html
     for name, col in (("pitch_abs", 0), ("roll_abs", 1)):
         v = absolute[fused, col]
@@ -234,7 +234,7 @@ def test_analyze_imu_save_stores_the_absolute_angles_for_the_report(
         assert set(stored["fused"]) == ({1} if name == "fused" else {None})
     assert main(["report", str(fused_session.id), "--data-dir", str(data), "--out", str(tmp_path / "rep")]) == 0
     html = (tmp_path / "rep" / "report.html").read_text()
-    assert "<h2>Absolute pitch and roll (IMU fusion)</h2>" in html
+    assert "<h2>Absolute pitch and roll (against gravity)</h2>" in html
     fused_abs = read_table(tmp_path / "fused" / "angles.csv", ("pitch_abs",))["pitch_abs"]
     assert f"<tr><td>pitch_abs mean [deg]</td><td>{np.mean(fused_abs):.3f}</td></tr>" in html
 

@@ -170,6 +170,15 @@ def _absolute_section(t_s: np.ndarray, rel_deg: np.ndarray, abs_deg: np.ndarray 
     return {"stats": stats, "png": _png(fig)}
 
 
+def _posture_withheld(cls: Mapping[str, Any]) -> bool:
+    """The analysis withheld every posture (:func:`walkmon.gait.session.without_posture`: a sensor in another
+    sensor's axes): its gravity angles are not the trunk's either, and the report shows none (user review: the
+    appendix printed pitch_abs mean -88 deg, and 53 deg for angles wrapping past +-180)."""
+    from walkmon.gait.session import NO_POSTURE  # noqa: PLC0415
+
+    return any(str(r).startswith(NO_POSTURE) for r in cls.get("reasons") or ())
+
+
 def _fmt(v: Any, digits: int = 3) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "\u2013"
@@ -418,8 +427,9 @@ def render_report_html(
         has_baseline=base is not None, table3=table3, extra_rows=extra_rows,
         cycles=", ".join(f"{a} {doc['axes'][a].get('n_cycles', 0)}" for a in AXES),
         asymmetry=list(doc["asymmetry"].items()), figures=_figures(analysis),
-        absolute=_absolute_section(analysis.t_s, analysis.raw_deg,
-                                   None if abs_angles_deg is None else np.asarray(abs_angles_deg, float).reshape(-1, 2)),
+        absolute=None if _posture_withheld(cls) else _absolute_section(
+            analysis.t_s, analysis.raw_deg,
+            None if abs_angles_deg is None else np.asarray(abs_angles_deg, float).reshape(-1, 2)),
         session=session, reference=reference, session_section=_markup(_session_section(doc)))
     return text.lstrip()
 

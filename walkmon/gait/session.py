@@ -1529,6 +1529,10 @@ def _weighted_asym(items: list[tuple[float, Indicators]]) -> dict[str, float]:
     return out
 
 
+#: How :func:`without_posture`'s reason starts (the report leaves the gravity angles out after it).
+NO_POSTURE = "no posture:"
+
+
 def without_posture(ind: Indicators, timeline: tuple, reason: str) -> tuple[Indicators, tuple]:
     """The analysis with no posture in it: for a sensor in another sensor's axes (``reason``: the axes warning),
     whose pitch and roll are not the trunk's (user review: a neck-pouch phone near upside down read 0-64 % upright
@@ -1538,7 +1542,7 @@ def without_posture(ind: Indicators, timeline: tuple, reason: str) -> tuple[Indi
     yaw stay."""
     nan = float("nan")
     none = AxisIndicators(nan, nan, nan, nan, n_cycles=0)
-    why = f"no posture: {reason}"
+    why = f"{NO_POSTURE} {reason}"
     session = {k: (dict(v) if isinstance(v, Mapping) else v) for k, v in ind.session.items()}
     for key in ("segments", "bouts"):
         docs = []
