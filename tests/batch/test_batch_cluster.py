@@ -221,6 +221,11 @@ def test_output_folder_is_private(first_run) -> None:  # noqa: ANN001
     assert out.stat().st_mode & 0o077 == 0  # health data: the folder the batch created is the user's alone
     for name in ("summary.parquet", "summary.csv", "bouts.parquet", "manifest.json"):
         assert (out / name).stat().st_mode & 0o077 == 0
+    # every folder under it too, the bookkeeping's (user review: .walkmon-batch/attempts, named after the
+    # recordings, was 0755 under umask 022)
+    folders = [p for p in out.rglob("*") if p.is_dir()]
+    assert folders and all(p.stat().st_mode & 0o077 == 0 for p in folders), \
+        [(str(p), oct(p.stat().st_mode)) for p in folders if p.stat().st_mode & 0o077]
 
 
 def test_command_line_bad_inputs_exit_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

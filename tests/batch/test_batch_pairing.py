@@ -49,6 +49,16 @@ def test_stem_patterns_and_a_shared_folder(tmp_path: Path) -> None:
     assert sorted(recs) == ["a", "b", "c", "imu", "lone-imu"]
 
 
+def test_a_cameras_upper_case_names_pair_as_the_lower_case_ones(tmp_path: Path) -> None:
+    """User review: WALK.MP4 beside WALK_IMU.csv became two recordings, the video camera-only and the IMU alone,
+    without a word: the IMU file is found case-insensitively, the stem patterns matched only literally."""
+    _touch(tmp_path, "up/WALK.MP4", "up/WALK_IMU.csv", "up/WALK.YAML")
+    recs = _by_name(find_recordings([tmp_path / "up"]))
+    assert sorted(recs) == ["WALK"]
+    assert recs["WALK"].imu == (tmp_path / "up/WALK_IMU.csv").resolve()
+    assert recs["WALK"].calib == (tmp_path / "up/WALK.YAML").resolve()
+
+
 def test_explicit_calib_patterns_and_no_pairing(tmp_path: Path) -> None:
     _touch(tmp_path, "w/walk.mp4", "w/walk-imu.csv", "w/walk.yaml", "w/walk.gyro.csv", "cam.yaml")
     (r,) = find_recordings([tmp_path / "w" / "walk.mp4"], calib=tmp_path / "cam.yaml")

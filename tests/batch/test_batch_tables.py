@@ -116,6 +116,7 @@ def test_summary_frame_types_and_order() -> None:
     assert df.loc[1, "cadence_spm"] == 108.0
     assert df["attempts"].tolist() == [2, 1]
     assert df["resumed"].tolist() == [False, True]
+    assert df["indicators_schema"].tolist() == ["", "1"]  # the document's schema_version (review: NaN on every row)
 
 
 def test_manifest_round_trip_private_and_damaged(tmp_path: Path) -> None:

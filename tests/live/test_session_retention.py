@@ -168,7 +168,7 @@ def test_prune_command_prints_what_it_deletes_or_would(tmp_path: Path, capsys: p
     assert [s.id for s in list_sessions(tmp_path)] == [new, running]
     assert mid not in [s.id for s in list_sessions(tmp_path)]
     assert main(["sessions", "prune", "--older-than", "0", "--keep", "1", "--data-dir", str(tmp_path)]) == 0
-    assert capsys.readouterr().out == "deleted no session (none ended more than 0 days ago beyond the newest 1)\n"
+    assert capsys.readouterr().out == "deleted no session (no ended session started more than 0 days ago beyond the newest 1)\n"
     assert main(["sessions", "prune", "--older-than", "-3", "--data-dir", str(tmp_path)]) == 2
     assert "DAYS must be a number >= 0" in capsys.readouterr().err
 

@@ -154,6 +154,12 @@ def _first_match(video: Path, patterns: Sequence[str], sole_video: bool) -> Path
             raise InvalidInputError(msg) from None
         if candidate.is_file():
             return candidate.resolve()
+        # a camera's upper-case names (WALK.MP4 beside WALK_IMU.csv): the pattern matched without regard to case,
+        # as the IMU files are found (user review: one walk became two recordings, unpaired, without a word)
+        if video.parent.is_dir():
+            same = [p for p in video.parent.iterdir() if p.name.lower() == candidate.name.lower() and p.is_file()]
+            if len(same) == 1:
+                return same[0].resolve()
     return None
 
 

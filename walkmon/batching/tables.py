@@ -76,8 +76,8 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     "walkmon_version", "indicators_schema", "python_version", "numpy_version", "opencv_version",
 )
 _TEXT = {"name", "status", "error", "kind", "video", "imu", "calib", "indicator_status", "label", "reasons",
-         "gait_mode", "method", "worker", "finished_utc", "walkmon_version", "python_version", "numpy_version",
-         "opencv_version"}
+         "gait_mode", "method", "worker", "finished_utc", "walkmon_version", "indicators_schema", "python_version",
+         "numpy_version", "opencv_version"}  # indicators_schema read as a number was NaN on every row (review)
 _INT = {"attempts", "n_bouts"}  # n_steps, n_turns: float, NaN where indicators.json does not say
 _BOOL = {"resumed"}
 

@@ -109,7 +109,7 @@ def _worker_address() -> str:
 def _count_attempt(state: Path, name: str) -> int:
     """Append this start to ``state/attempts/<name>``; returns how many starts it holds (this one included)."""
     folder = state / "attempts"
-    folder.mkdir(parents=True, exist_ok=True)
+    folder.mkdir(mode=0o700, parents=True, exist_ok=True)  # inside the 0700 state folder
     path = folder / name
     fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o600)
     try:
@@ -157,7 +157,7 @@ def _replace_folder(tmp: Path, final: Path, state: Path, expected: Sequence[str]
             msg = f"{final}: exists and is not a folder; not replacing it"
             raise InvalidInputError(msg)
         trash = state / "trash" / f"{final.name}-{uuid.uuid4().hex[:8]}"
-        trash.parent.mkdir(parents=True, exist_ok=True)
+        trash.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
         os.replace(final, trash)
         os.replace(tmp, final)
         shutil.rmtree(trash, ignore_errors=True)
@@ -202,7 +202,7 @@ def analyze_task(task: Mapping[str, Any]) -> dict[str, Any]:
             doc = json.loads((final / "indicators.json").read_text(encoding="utf-8"))
             return {"row": kept, "bouts": bouts_from_indicators(name, doc), "manifest": dict(previous)}
         tmp = state / "tmp" / f"{name}-{uuid.uuid4().hex[:8]}"
-        tmp.parent.mkdir(parents=True, exist_ok=True)
+        tmp.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
         written: list[str] = []
         doc = run_analysis(task.get("video"), task.get("imu"), task.get("calib"), options, tmp, written)
         row.update(indicator_columns(doc))

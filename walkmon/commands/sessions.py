@@ -196,7 +196,7 @@ def _prune(args: argparse.Namespace) -> int:
     ids = prune_sessions(data_dir, args.older_than, keep=args.keep, dry_run=args.dry_run)
     verb = "would delete" if args.dry_run else "deleted"
     if not ids:
-        sys.stdout.write(f"{verb} no session (none ended more than {args.older_than:g} days ago"
+        sys.stdout.write(f"{verb} no session (no ended session started more than {args.older_than:g} days ago"
                          f"{'' if args.keep is None else f' beyond the newest {args.keep}'})\n")
     else:
         sys.stdout.write(f"{verb} {len(ids)} session(s):\n{_describe(before, ids)}\n")
