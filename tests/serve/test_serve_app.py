@@ -170,6 +170,11 @@ def test_token_required_and_host_checked(db: Path) -> None:
     assert open_c.get("/api/sessions").status_code == 200
     evil = TestClient(create_app(db), base_url="http://attacker.example")
     assert evil.get("/api/sessions").status_code == 400  # DNS rebinding to a loopback server
+    # bound to another loopback address: the URL it prints is served (user review: 400 on every request)
+    other = TestClient(create_app(db, bound_host="127.0.0.2"), base_url="http://127.0.0.2:8765")
+    assert other.get("/api/sessions").status_code == 200
+    assert TestClient(create_app(db, bound_host="127.0.0.2"), base_url="http://127.0.0.3:8765").get(
+        "/api/sessions").status_code == 400  # not any loopback address: the one bound to
     c = TestClient(create_app(db, token=TOKEN, bound_host="0.0.0.0"), base_url="http://192.168.1.20:8765")
     for path in ("/", "/api/live", "/api/sessions/1", "/history", "/static/live.js"):
         assert c.get(path).status_code == 401, path

@@ -58,7 +58,11 @@ class _Guard:
 
     def __init__(self, app: ASGIApp, token: str, bound_host: str) -> None:
         self.app, self.token = app, token
-        self.allowed_hosts = set(_LOOPBACK_NAMES) if is_loopback(bound_host) else None
+        # on loopback: the loopback names and the address bound to (user review: bound to 127.0.0.2, every request,
+        # the printed URL's included, was refused as an unexpected Host)
+        bound = bound_host.strip().strip("[]").lower()
+        names = {*_LOOPBACK_NAMES, bound, f"[{bound}]"}  # an IPv6 address comes bracketed in a Host header
+        self.allowed_hosts = names if is_loopback(bound_host) else None
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
