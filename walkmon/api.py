@@ -235,7 +235,13 @@ class Analysis:
             # the axes warning too: 'walkmon report ID' re-analyses the saved IMU and must withhold its posture as
             # this analysis did (review: it read '9 % upright' and a pitch of 172 deg where analyze had none)
             meta={**dict(meta or {}), **({"axes_warning": warn} if (warn := (self.imu_info or {}).get("axes_warning"))
-                                         else {})},
+                                         else {}),
+                  # the accelerometer in the angles' axes (an IMU or an accelerometer alone): the report measures the
+                  # upright stance from it as this analysis did (review: it went back to the filter's lagging
+                  # gravity, -3.0 deg where analyze had -0.4)
+                  **({} if imu is None or imu.acc_camera_m_s2 is None else {"acc_camera": {
+                      "calibration": None if imu.accelerometer_calibration is None
+                      else imu.accelerometer_calibration.to_dict()}})},
             extra=[(e.n_inliers, e.model, e.status.value) for e in self.estimates] or None,  # none: IMU-only
             abs_angles_deg=absolute, fused=fused, imu_samples=samples, timeline=self._timeline_hops(),
         )
@@ -657,7 +663,7 @@ def _imu_only_columns(
     cal = settings.accelerometer_calibration  # the filter's accelerometer, in the axes it took for the camera's
     acc_camera = imu.accelerometer_m_s2 if cal is None else cal.correct(imu.accelerometer_m_s2)
     cols["_imu_input"] = ImuInput(imu.t_s - imu.t_s[0], imu.accelerometer_m_s2, imu.gyroscope_rad_s,
-                                  acc_camera_m_s2=acc_camera)
+                                  acc_camera_m_s2=acc_camera, accelerometer_calibration=cal)
     axes = _axes_note(imu.accelerometer_m_s2, str(imu_path)) if "telemetry" not in source else None
     info = {"mode": "imu_only", "imu": str(imu_path), "imu_filter": imu_filter, **({"axes_warning": axes} if axes else {}),
             "accelerometer_calibration": None if calib is None else str(calib), "samples": len(imu.t_s),
@@ -1043,7 +1049,17 @@ class Session:
         t = np.asarray(imu["t_s"], dtype=float) - t0
         acc = np.column_stack([imu[c] for c in ("ax", "ay", "az")]).astype(float)
         gyro = np.column_stack([imu[c] for c in ("gx", "gy", "gz")]).astype(float)
-        return ImuInput(t, acc, None if not np.isfinite(gyro).any() else gyro)
+        saved = self.record.get("meta") if isinstance(self.record.get("meta"), Mapping) else {}
+        spec = saved.get("acc_camera") if isinstance(saved, Mapping) else None
+        acc_camera, cal = None, None
+        if isinstance(spec, Mapping):  # the accelerometer was in the angles' axes (see Analysis.save)
+            from walkmon.imu.calibration import AccelerometerCalibration  # noqa: PLC0415
+
+            raw_cal = spec.get("calibration")
+            cal = AccelerometerCalibration.from_dict(dict(raw_cal)) if isinstance(raw_cal, Mapping) else None
+            acc_camera = acc if cal is None else cal.correct(acc)
+        return ImuInput(t, acc, None if not np.isfinite(gyro).any() else gyro, acc_camera_m_s2=acc_camera,
+                        accelerometer_calibration=cal)
 
 
 def load_session(session_id: int, data_dir: str | Path | None = None) -> Session:

@@ -154,6 +154,21 @@ def test_the_stance_after_a_walk_measures_the_sensors_tilt_from_the_acceleromete
     last = doc["segments"][-1]
     walk = [p for t, p in truth if last["start_s"] <= t <= last["end_s"]]
     assert last["axes"]["pitch"]["inclination_mean"] == pytest.approx(float(np.mean(walk)), abs=0.75)
+    # the saved analysis' report measures the stance the same way (review: it went back to -3.03 / +2.75 deg)
+    import contextlib
+    import io
+    import json
+
+    from walkmon.commands.cli import main
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["analyze", "--imu", str(tmp_path / "sim" / "imu.csv"), "--out", str(tmp_path / "o2"), "--save",
+                     "--data-dir", str(tmp_path / "db")]) == 0
+        assert main(["report", "1", "--data-dir", str(tmp_path / "db"), "--out", str(tmp_path / "rep")]) == 0
+    rep = json.loads((tmp_path / "rep" / "indicators.json").read_text())
+    assert rep["upright_reference"]["pitch_deg"] == pytest.approx(ref["pitch_deg"], abs=0.05)
+    assert rep["segments"][-1]["axes"]["pitch"]["inclination_mean"] == pytest.approx(
+        last["axes"]["pitch"]["inclination_mean"], abs=0.1)
 
 
 @pytest.mark.parametrize("seed", [1, 2])

@@ -132,6 +132,9 @@ class ImuInput:
     #: its axes are taken as the camera's); None otherwise (a fused IMU in its own axes). The upright stance's
     #: gravity is measured from it (:func:`_stance_gravity_deg`)
     acc_camera_m_s2: NDArray[np.float64] | None = None
+    #: the accelerometer calibration ``acc_camera_m_s2`` was corrected with (None: the raw samples), kept so that a
+    #: saved analysis' report (:meth:`walkmon.api.Analysis.save`) rebuilds the same samples
+    accelerometer_calibration: Any = None
 
 
 @dataclass(frozen=True, slots=True)
