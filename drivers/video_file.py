@@ -53,6 +53,16 @@ MAX_FRAME_INTERVAL_S = 1.0
 LOOKAHEAD_FRAMES = 4
 
 
+def _is_iso_media(path: Path) -> bool:
+    """An ISO base media file (MP4, MOV, 3GP: an ``ftyp`` box first), whose header lists its frames."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(12)
+    except OSError:
+        return False
+    return len(head) >= 8 and head[4:8] == b"ftyp"
+
+
 def max_interval_s(fps: float) -> float:
     """The longest interval between frames taken as real: :data:`MAX_FRAME_INTERVAL_S`, or three frames of a
     slower video (a time-lapse)."""
@@ -90,6 +100,9 @@ class VideoFile:
         self.height_px = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
         #: Frame count from the container header (may be 0 or approximate for some formats).
         self.frame_count = max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
+        #: Whether that count is the frames' own (an MP4 / MOV lists its samples), not one made from the duration (an
+        #: MKV's, a TS's): a pause in the frames' times then says nothing about frames missing
+        self.count_is_exact = _is_iso_media(self.path)
         shown = shown_video_frames(self.path, fps)
         if shown is not None and self.frame_count:
             # an edit list shows part of the samples (a trim without re-encoding): those frames are the video
@@ -154,7 +167,8 @@ class VideoFile:
         # pauses forward over max_interval_s that became new time lines: the duration an MKV's or a TS's count comes
         # from holds them (user review: a 1.2 s gap in an MKV, whole, refused as damaged; the same frames in an MP4,
         # whose count is the frames', analysed)
-        span = self._last_t_s + self._skipped_s + 1.0 / self.fps
+        # (review: for an MP4, whose count is its frames', the pause hid half the frames missing: not there)
+        span = self._last_t_s + (0.0 if self.count_is_exact else self._skipped_s) + 1.0 / self.fps
         expected = self.frame_count / self.fps
         if (self._decoded < self.frame_count - max(2, self.frame_count // 100)
                 and span < expected - max(2.0 / self.fps, 0.01 * expected)):

@@ -169,6 +169,17 @@ def test_a_whole_file_with_a_pause_over_a_second_is_not_damaged(tmp_path: Path, 
     assert len(got) == len(times)
 
 
+def test_a_pause_does_not_hide_a_damaged_mp4(tmp_path: Path) -> None:
+    """Review: the pause added back for an MKV's count (made from its duration) was added for an MP4 too, whose
+    count is its frames': 150 of 300 frames with a 6 s pause among them read as whole, half a walk analysed."""
+    times: list[float | None] = [k * 1000 / 30 + (6000.0 if k >= 50 else 0.0) for k in range(150)]
+    video = _scripted(tmp_path, times)
+    video.frame_count = 300
+    with video, pytest.raises(InvalidInputError, match="damaged: decoding failed at frame 150 of 300"):
+        for _ in video:
+            pass
+
+
 def test_a_time_lapse_below_one_frame_a_second_keeps_its_times(tmp_path: Path) -> None:
     """Review case: a 0.5 fps video was taken for a broken container rate (30 fps assumed) and its 2 s intervals
     for corrupt times (60 x too fast)."""
