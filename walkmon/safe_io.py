@@ -73,16 +73,23 @@ def prepare_dir(path: str | Path) -> Path:
             raise InvalidInputError(msg)
         return p
     # each missing folder made 0700 (mkdir(parents=True) gives the parents the umask's mode: 0755 under umask 022,
-    # user review), the nearest existing one left as it is
+    # user review), and only the folders made here: an existing one reached as 'new/..' is left as it is (review:
+    # it was chmodded 0700)
     missing = [p]
     while not missing[-1].parent.exists() and missing[-1].parent != missing[-1]:
         missing.append(missing[-1].parent)
     for d in reversed(missing):
         check_not_symlink(d, "output folder")
-        d.mkdir(mode=DIR_MODE, exist_ok=True)
+        try:
+            d.mkdir(mode=DIR_MODE)
+        except FileExistsError:
+            continue  # made by someone else meanwhile: left as it is
         if (d.stat().st_mode & 0o777) != DIR_MODE:
             os.chmod(d, DIR_MODE)  # a umask stricter than 0700 takes bits mkdir's mode asked for
     check_not_symlink(p, "output folder")  # raced in between: refuse
+    if not p.is_dir():
+        msg = f"{p}: exists and is not a folder"
+        raise InvalidInputError(msg)
     return p
 
 

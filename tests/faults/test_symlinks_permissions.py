@@ -115,6 +115,17 @@ def test_every_missing_parent_of_an_output_folder_is_made_private(tmp_path: Path
     for d in ("a", "a/b", "a/b/c", "x", "x/y"):
         assert oct((tmp_path / d).stat().st_mode & 0o777) == "0o700", d
     assert (tmp_path / "x" / "y" / "f.txt").read_text() == "ok"
+    # an existing folder reached through '..' is left as it is (review: 'new/../out' chmodded it 0700)
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o755)
+    old = os.umask(umask)
+    try:
+        prepare_dir(shared / "new" / ".." / "out")
+    finally:
+        os.umask(old)
+    assert oct(shared.stat().st_mode & 0o777) == "0o755"
+    assert oct((shared / "out").stat().st_mode & 0o777) == "0o700"
 
 
 def test_simulate_writes_every_file_private_and_not_through_a_planted_link(tmp_path: Path, cli) -> None:
