@@ -66,9 +66,23 @@ def test_cooldown_suppresses_a_repeat_then_allows_it() -> None:
 def test_no_alert_while_not_walking_and_active_alert_cleared_when_stopping() -> None:
     st = AlertStage(AlertSettings(delay_s=2.0))
     assert feed(st, [ind(float(t), -30.0, walking=False) for t in range(20)]) == []
-    ev = feed(st, [ind(float(t), -30.0) for t in range(20, 25)] + [ind(25.0, -30.0, walking=False)])
-    assert [e.state for e in ev] == ["raised", "cleared"]
+    ev = feed(st, [ind(float(t), -30.0) for t in range(20, 25)] + [ind(t, -30.0, walking=False) for t in (25.0, 26.0)])
+    assert [e.state for e in ev] == ["raised"]  # not walking for 1 s: still raised
+    (ev,) = st.push(ind(27.0, -30.0, walking=False))
+    assert ev.state == "cleared" and ev.t_s == 27.0  # not walking for clear_delay_s (2 s)
     assert st.active == ()
+
+
+def test_one_hop_not_walking_mid_walk_does_not_clear_an_alert_that_holds() -> None:
+    """User review: one 'unknown' hop (or a 1.7 s U-turn) while the wearer walked on bent cleared the alert at
+    once, telling them 'not walking', and the cooldown then kept the bent walk after it unsaid."""
+    st = AlertStage()
+    raised = feed(st, [ind(float(t), pitch=-16.0) for t in range(0, 8)])
+    assert [e.state for e in raised] == ["raised"]
+    blip = dataclasses.replace(ind(8.0, -16.0, walking=False), activity="unknown")
+    assert st.push(blip) == []
+    assert feed(st, [ind(float(t), pitch=-16.0) for t in range(9, 20)]) == []
+    assert st.active == ("lean_forward",)
 
 
 def test_shoulder_unsteady_asymmetry_conditions() -> None:
@@ -167,9 +181,12 @@ def test_an_alert_cleared_by_a_covered_lens_says_so() -> None:
     assert [e.state for e in raised] == ["raised"]
     why = "nothing measured for 2.0 s: the camera's view held (covered, dark or featureless)"
     blind = dataclasses.replace(ind(8.0, walking=False), activity="unknown", label="not_walking", reasons=(why,))
-    (ev,) = stage.push(blind)
+    assert stage.push(blind) == []  # cleared after clear_delay_s (2 s) without walking
+    (ev,) = stage.push(dataclasses.replace(blind, t_s=10.0))
     assert ev.state == "cleared" and ev.message == "nothing measured for 2.0 s: alert cleared"
     stage = AlertStage()
     feed(stage, [ind(float(t), pitch=-15.0) for t in range(0, 8)])
-    (ev,) = stage.push(dataclasses.replace(ind(8.0, walking=False), activity="standing"))
+    standing = dataclasses.replace(ind(8.0, walking=False), activity="standing")
+    assert stage.push(standing) == []
+    (ev,) = stage.push(dataclasses.replace(standing, t_s=10.0))
     assert ev.message == "not walking: alert cleared"

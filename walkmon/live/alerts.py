@@ -16,8 +16,8 @@ empty). Each condition
 
 is *raised* once it has held continuously for ``delay_s`` (default 5 s), and *cleared* once it has been back
 inside its threshold minus the hysteresis margin for ``clear_delay_s``. After a clear, the same condition is
-not raised again before ``cooldown_s``. While the wearer is not walking nothing is raised, and active alerts
-are cleared. Sinks that deliver events (terminal, sound, command hook) live in :mod:`walkmon.live.sinks`.
+not raised again before ``cooldown_s``. While the wearer is not walking nothing is raised, and an active alert
+clears once the wearer has not walked (or has been back inside) for ``clear_delay_s``. Sinks that deliver events (terminal, sound, command hook) live in :mod:`walkmon.live.sinks`.
 """
 
 from __future__ import annotations
@@ -176,9 +176,16 @@ class AlertStage:
             value = measure(ind)
             finite = math.isfinite(value)
             if not ind.walking:
+                # nothing raised; a raised alert clears once the wearer has not walked (or been back inside) for
+                # clear_delay_s: one unknown hop mid-walk, or a U-turn, cleared it at once, and the cooldown then
+                # kept the posture that still held from being said again (user review: a bent walker's alert
+                # cleared at a 1.7 s turn, 15 s more of bent walking unsaid)
                 st.pending_since = None
                 if st.active:
-                    events.append(self._clear(cond, st, t, value, off_thr, f"{_not_walking_why(ind)}: alert cleared"))
+                    if st.clear_since is None:
+                        st.clear_since = t
+                    if t - st.clear_since >= self.settings.clear_delay_s - 1e-9:
+                        events.append(self._clear(cond, st, t, value, off_thr, f"{_not_walking_why(ind)}: alert cleared"))
                 continue
             if not st.active:
                 if finite and value > on_thr:
