@@ -226,3 +226,22 @@ def test_a_logged_sessions_report_does_not_keep_a_calibration_the_monitor_reject
         mid = 0.5 * (p.start_s + p.end_s)
         labels = {s["label"] for s in doc["segments"] if s["start_s"] <= mid <= s["end_s"]}
         assert labels == {"normal"}, (p, doc["segments"])
+
+
+def test_the_live_reference_a_report_falls_back_on_is_the_monitors_last(tmp_path: Path) -> None:
+    """Review: only a 'posture' retake replaced the first calibration, so a retake logged as the wearer's 'request'
+    (the monitor keeps that name) went back to the rejected seated start; a 'pause' re-reference after a turn is a
+    drifted video's pose, never the session's upright."""
+    from walkmon.gait.live import CalibrationEvent
+    from walkmon.live.session_log import SessionLog
+
+    log = SessionLog(tmp_path / "db", kind="live", camera="test", flush_interval_s=1.0)
+    for i in range(40):
+        log.add_frame(i / 30, (0.0, 0.0, 0.0), 80, "rotation", "ok", 5.0)
+    log.add_calibration(CalibrationEvent(0.5, (30.0, 0.0, 0.0), "start", 2.0))
+    log.add_calibration(CalibrationEvent(0.8, (2.0, 0.0, 0.5), "request", 2.0))
+    log.add_calibration(CalibrationEvent(1.0, (7.0, 40.0, 1.0), "pause", 1.0))
+    sid = log.session_id
+    log.close("complete")
+    ref = walkmon.load_session(sid, tmp_path / "db")._live_reference()
+    assert ref is not None and ref.tolist() == [2.0, 0.0, 0.5]

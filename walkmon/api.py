@@ -1027,14 +1027,18 @@ class Session:
         return analysis
 
     def _live_reference(self) -> NDArray[np.float64] | None:
-        """The live monitor's upright reference to fall back on: the last one it took because the one before was
-        no standing stance (reason 'posture'), else its first; None without any (a 'pause' re-reference is a
-        drifted video's pose after a turn, no upright stance for the whole session)."""
+        """The live monitor's upright reference to fall back on: the last one it took other than a 'pause'
+        re-reference (a drifted video's pose after a turn, no upright stance for the whole session), the reference it
+        ended with: a 'posture' retake after a rejected stance, or a wearer's 'request' (review: only 'posture'
+        counted, and a request's retake went back to the rejected seated start); None without any."""
         cal = self.calibrations
         if not len(cal):
             return None
         reasons = [str(v) for v in cal["reason"]]
-        i = max((k for k, why in enumerate(reasons) if why == "posture"), default=0)
+        kept = [k for k, why in enumerate(reasons) if why != "pause"]
+        if not kept:
+            return None
+        i = kept[-1]
         return np.array([cal["pitch"][i], cal["yaw"][i], cal["roll"][i]], dtype=float)
 
     def _imu_input(self, t0: float) -> Any:
