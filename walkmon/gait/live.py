@@ -727,6 +727,12 @@ class LiveIndicatorStage:
             activity = "unknown"
             reasons = (f"activity unknown: still but {max(tilted):.0f} deg from upright (sitting, lying or bent "
                        "down?)",)
+        elif activity == "standing" and self._rejected is not None and recent.sum() >= 3 \
+                and not self._near_walking(t, recent):
+            # the reference rejected (taken seated), so no posture: the stance against the walking posture seen
+            # since (review: a wearer who started the monitor seated was logged standing when seated again)
+            activity = "unknown"
+            reasons = ("activity unknown: still but far from the walking posture (sitting, lying or bent down?)",)
         event = self._pending_events.popleft() if self._pending_events else None
         return LiveIndicators(
             t_s=float(t_now),
