@@ -124,3 +124,21 @@ def test_only_a_loopback_host_goes_without_a_token(host: str, ok: bool) -> None:
     else:
         with pytest.raises(ValueError, match="not loopback"):
             ServeSettings(host=host)
+
+
+def test_check_says_which_set_keys_do_nothing(tmp_path, capsys) -> None:
+    """User review: '[indicators] bend_pitch_deg = 40' passed 'config --check' as ok, and a -17 deg walk was still
+    labelled bend: those keys only load (older files), the labels come from the classifier's thresholds."""
+    from walkmon.commands.cli import main
+
+    cfg = tmp_path / "walkmon.toml"
+    cfg.write_text("[indicators]\nbend_pitch_deg = 40.0\nshoulder_down_roll_deg = 1.0\n", encoding="utf-8")
+    cfg.chmod(0o600)
+    assert main(["config", "--check", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    assert "ok (not used: indicators.bend_pitch_deg, indicators.shoulder_down_roll_deg;" in out
+    plain = tmp_path / "plain.toml"
+    plain.write_text("[indicators]\nbend_pitch_deg = 10.0\n", encoding="utf-8")  # the default: nothing to say
+    plain.chmod(0o600)
+    assert main(["config", "--check", str(plain)]) == 0
+    assert capsys.readouterr().out.strip() == f"{plain}: ok"
