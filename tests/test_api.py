@@ -245,3 +245,86 @@ def test_the_live_reference_a_report_falls_back_on_is_the_monitors_last(tmp_path
     log.close("complete")
     ref = walkmon.load_session(sid, tmp_path / "db")._live_reference()
     assert ref is not None and ref.tolist() == [2.0, 0.0, 0.5]
+
+
+@pytest.fixture(scope="module")
+def imu_walk(tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201
+    """A 24 s IMU-only walk (2 s standing, normal 10 s, bent 10 s, 2 s standing) and its analysis."""
+    from walkmon.simulate import simulate
+
+    sim = simulate(tmp_path_factory.mktemp("api_imu") / "sim", walk="normal:10,bend:10", seed=2, video=False)
+    return sim, walkmon.analyze(imu=sim.imu_path)
+
+
+def test_a_given_reference_with_gravity_is_used_and_said(imu_walk) -> None:  # noqa: ANN001
+    """Review of the Python API: analyze_angles(..., abs_angles_deg=..., reference_deg=X) gave the same figures for
+    any X (the reference level), while saying 'given'. The standing pose given reads as the standing phase found;
+    that pose pitched 5 deg down reads every inclination 5 deg higher."""
+    _, a = imu_walk
+    t, ang, ab = a.t_s, a.angles_deg, a.abs_angles_deg
+    stance = ang[t < 1.5].mean(axis=0)
+    found = walkmon.analyze_angles(t, ang, abs_angles_deg=ab).indicators
+    same = walkmon.analyze_angles(t, ang, abs_angles_deg=ab, reference_deg=stance).indicators
+    down5 = walkmon.analyze_angles(t, ang, abs_angles_deg=ab, reference_deg=stance + [-5.0, 0.0, 0.0]).indicators
+    assert same["upright_reference"]["source"].startswith("given")
+    for f, g, h in zip(found["segments"], same["segments"], down5["segments"], strict=True):
+        p = f["axes"]["pitch"]["inclination_mean"]
+        assert g["axes"]["pitch"]["inclination_mean"] == pytest.approx(p, abs=0.3)
+        assert h["axes"]["pitch"]["inclination_mean"] == pytest.approx(p + 5.0, abs=0.3)
+
+
+def test_the_indicators_dict_is_a_fresh_copy(imu_walk, tmp_path: Path) -> None:  # noqa: ANN001
+    """Review: editing a.indicators' nested bouts changed the analysis, its written indicators.json and save()."""
+    _, a = imu_walk
+    d = a.indicators
+    n, cad = d["summary"]["n_steps"], d["bouts"][0]["cadence_spm"]
+    d["summary"]["n_steps"] = -1
+    d["bouts"][0]["cadence_spm"] = 0.0
+    assert a.indicators["summary"]["n_steps"] == n and a.indicators["bouts"][0]["cadence_spm"] == cad
+    a.write(tmp_path / "out", report=False)
+    written = json.loads((tmp_path / "out" / "indicators.json").read_text())
+    assert written["summary"]["n_steps"] == n
+
+
+def test_write_expands_the_home_folder(imu_walk, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:  # noqa: ANN001
+    """Review: write('~/out') made a folder named '~' in the current folder; save() and the readers expand it."""
+    _, a = imu_walk
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    a.write("~/out", report=False)
+    assert (tmp_path / "home" / "out" / "indicators.json").is_file() and not (tmp_path / "~").exists()
+
+
+def test_an_accelerometer_file_takes_its_calibration_and_checks_the_filter(imu_walk, tmp_path: Path) -> None:  # noqa: ANN001
+    """Review: for a t,ax,ay,az file imu_calib and imu_filter were silently ignored, a missing calibration file
+    and a filter named 'bogus' included; a file missing one gyroscope column was read as an accelerometer's."""
+    sim, _ = imu_walk
+    cols = read_table(sim.imu_path, ("t", "gx", "gy", "gz", "ax", "ay", "az"))
+    from walkmon.tables import write_table
+
+    write_table(tmp_path / "acc.csv", {k: cols[k] for k in ("t", "ax", "ay", "az")})
+    with pytest.raises(InvalidInputError, match="does-not-exist"):
+        walkmon.analyze(imu=tmp_path / "acc.csv", imu_calib=tmp_path / "does-not-exist.json")
+    with pytest.raises(ConfigError, match="bogus"):
+        walkmon.analyze(imu=tmp_path / "acc.csv", imu_filter="bogus")
+    write_table(tmp_path / "nogz.csv", {k: cols[k] for k in ("t", "gx", "gy", "ax", "ay", "az")})
+    with pytest.raises(InvalidInputError, match="no gz"):
+        walkmon.analyze(imu=tmp_path / "nogz.csv")
+
+
+@pytest.mark.parametrize(("call", "match"), [
+    (lambda a, p: walkmon.analyze_angles(a.t_s, a.angles_deg, reference_deg=[1, 2]), "reference_deg must be 3"),
+    (lambda a, p: walkmon.analyze_angles(a.t_s, a.angles_deg, meta=[1, 2]), "meta must be a mapping"),
+    (lambda a, p: a.save(p / "db", meta=[1, 2]), "meta must be a mapping"),
+    (lambda a, p: walkmon.analyze(imu=p / "imu.csv", imu_offset_s="abc"), "imu_offset_s must be a finite"),
+    (lambda a, p: walkmon.analyze(imu=np.zeros((10, 7))), "imu must be a path"),
+    (lambda a, p: walkmon.load_session("abc", p / "db"), "session_id must be a whole number"),
+    (lambda a, p: walkmon.load_session(1.7, p / "db"), "session_id must be a whole number"),
+    (lambda a, p: a.save(p / "afile"), "not a folder"),
+])
+def test_bad_api_arguments_are_walkmon_errors(imu_walk, tmp_path: Path, call, match: str) -> None:  # noqa: ANN001
+    """Review: these raised bare ValueError / TypeError / NotADirectoryError tracebacks (or, 1.7, loaded session 1)."""
+    _, a = imu_walk
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(walkmon.WalkmonError, match=match):
+        call(a, tmp_path)

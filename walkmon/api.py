@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -178,7 +179,9 @@ class Analysis:
         from walkmon.safe_io import json_text, prepare_dir, write_text  # noqa: PLC0415
         from walkmon.tables import write_indicators, write_table  # noqa: PLC0415
 
-        out = prepare_dir(Path(out_dir))  # 0700; a symlinked folder is refused (every file: walkmon.safe_io)
+        # 0700; a symlinked folder is refused (every file: walkmon.safe_io); '~' expanded as save() and the readers
+        # do (review: write('~/out') made a folder named '~' in the current one)
+        out = prepare_dir(Path(out_dir).expanduser())
         written: dict[str, Path] = {}
         if angles:
             written["angles.csv"] = out / "angles.csv"
@@ -214,9 +217,13 @@ class Analysis:
         """Record this analysis as a session of kind ``analyze`` in the session log (``walkmon analyze --save``);
         returns its id. ``data_dir``: the database folder (default ~/.local/share/walkmon); ``meta``: stored with
         the session."""
-        from walkmon.live.session_log import default_data_dir, record_offline_session  # noqa: PLC0415
+        from walkmon.live.session_log import check_database_usable, default_data_dir, record_offline_session  # noqa: PLC0415
 
+        if meta is not None and not isinstance(meta, Mapping):
+            msg = f"meta must be a mapping (a dict), got {type(meta).__name__}"
+            raise InvalidInputError(msg)
         folder = Path(data_dir).expanduser() if data_dir is not None else default_data_dir()
+        check_database_usable(folder)  # a file, a foreign database: one line (review: NotADirectoryError)
         absolute = self.abs_angles_deg
         video = bool(self.estimates)
         # with an IMU, the frames' pitch_abs/roll_abs as 'walkmon live' stores them, so 'walkmon report ID'
@@ -306,6 +313,16 @@ def analyze_angles(
     a = np.asarray(angles_deg, dtype=float)
     if a.shape != (len(t), 3):
         msg = f"angles_deg must have shape ({len(t)}, 3) like t_s, got {a.shape}"
+        raise InvalidInputError(msg)
+    # the other arguments checked too (review: a reference of 2 numbers, or a list as meta, raised a bare
+    # ValueError / TypeError from deep inside)
+    if reference_deg is not None:
+        ref = np.asarray(reference_deg, dtype=float).reshape(-1)
+        if ref.shape != (3,) or not np.isfinite(ref).all():
+            msg = f"reference_deg must be 3 finite numbers (pitch, yaw, roll in degrees), got {reference_deg!r}"
+            raise InvalidInputError(msg)
+    if meta is not None and not isinstance(meta, Mapping):
+        msg = f"meta must be a mapping (a dict), got {type(meta).__name__}"
         raise InvalidInputError(msg)
     if len(t) >= 2 and np.isfinite(t).all() and float(np.median(np.diff(t))) > MAX_ANGLE_INTERVAL_S:
         # t in milliseconds read as seconds: 30 fps became frames 33 s apart, 'no walking bout' and a standing
@@ -580,29 +597,36 @@ def _imu_settings(imu_filter: str, offset_s: float, calib: str | Path | None) ->
                           accelerometer_calibration=accel)
 
 
-def _acc_only_columns(imu_path: str | Path, offset_s: float) -> tuple[dict[str, Any], dict[str, Any]]:
+def _acc_only_columns(imu_path: str | Path, offset_s: float, imu_filter: str = "vqf",
+                      calib: str | Path | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
     """Accelerometer-only analysis (``t,ax,ay,az``, issue 11): gravity pitch/roll (the accelerometer low-passed at
-    0.25 Hz, its axes taken as the camera's), no yaw (an empty column); steps and bouts come from the raw samples."""
+    0.25 Hz, its axes taken as the camera's; corrected by ``calib``, the accelerometer calibration, when given), no
+    yaw (an empty column); steps and bouts come from the raw samples. ``imu_filter`` is checked (no attitude
+    filter runs here): a bad name or calibration file was silently ignored (review)."""
     from walkmon.consts import gravity_angles_deg_from_gravity  # noqa: PLC0415
     from walkmon.gait.activity import gravity_direction  # noqa: PLC0415
     from walkmon.gait.session import ImuInput  # noqa: PLC0415
     from walkmon.tables import read_acc_csv  # noqa: PLC0415
 
+    cal = _imu_settings(imu_filter, offset_s, calib).accelerometer_calibration  # refuses a bad name or file
     units: list[str] = []
     t_raw, acc = read_acc_csv(imu_path, units_out=units)
     t_raw = t_raw + float(offset_s)
     rate = sampling_rate_hz(t_raw)
     step = max(1, int(np.ceil(rate / 100.0 - 1e-9)))
-    absolute = gravity_angles_deg_from_gravity(-gravity_direction(acc, rate))[::step]
+    acc_cal = acc if cal is None else cal.correct(acc)
+    absolute = gravity_angles_deg_from_gravity(-gravity_direction(acc_cal, rate))[::step]
     t = t_raw[::step] - t_raw[0]
     rel = absolute - absolute[0]
     cols: dict[str, Any] = {"t": t, "pitch": rel[:, 0], "yaw": np.full(t.size, np.nan), "roll": rel[:, 1],
                             "pitch_abs": absolute[:, 0], "roll_abs": absolute[:, 1],
-                            "_imu_input": ImuInput(t_raw - t_raw[0], acc, None, acc_camera_m_s2=acc)}
+                            "_imu_input": ImuInput(t_raw - t_raw[0], acc, None, acc_camera_m_s2=acc_cal,
+                                                   accelerometer_calibration=cal)}
     axes = _axes_note(acc, str(imu_path))
     info = {"mode": "accelerometer_only", "imu": str(imu_path), **({"axes_warning": axes} if axes else {}),
             "samples": len(t_raw), "rate_hz": round(rate, 3),
             **_gap_doc(t_raw), "rows": len(t), "axes": "accelerometer's own axes (no camera extrinsics)",
+            "accelerometer_calibration": None if calib is None else str(calib),
             "note": "no gyroscope: pitch/roll from gravity (low-passed accelerometer), no yaw, no turns"}
     if units:
         info["units"] = units
@@ -892,6 +916,20 @@ def analyze(
     if imu_extrinsics not in ("identity", "estimate"):
         msg = f"unknown imu_extrinsics {imu_extrinsics!r}; expected identity or estimate"
         raise ConfigError(msg)
+    # the API's own arguments checked as the CLI's are (review: plain TypeError / ValueError tracebacks)
+    for name, value in (("video", video), ("imu", imu), ("calib", calib), ("imu_calib", imu_calib)):
+        if value is not None and not isinstance(value, str | os.PathLike):
+            msg = f"{name} must be a path (str or os.PathLike), got {type(value).__name__}"
+            raise InvalidInputError(msg)
+    if progress is not None and not callable(progress):
+        msg = f"progress must be a callable progress(done, total) or None, got {type(progress).__name__}"
+        raise InvalidInputError(msg)
+    if imu_offset_s is not None:
+        try:
+            imu_offset_s = float(imu_offset_s)
+        except (TypeError, ValueError):
+            msg = f"imu_offset_s must be a finite number of seconds, got {imu_offset_s!r}"
+            raise ConfigError(msg) from None
     if imu_offset_s is not None and not math.isfinite(float(imu_offset_s)):
         msg = f"imu_offset_s must be a finite number of seconds, got {imu_offset_s!r}"
         raise ConfigError(msg)
@@ -926,7 +964,7 @@ def _analyze(
 
         telemetry = str(imu).lower().startswith(TELEMETRY_PREFIX)
         if not telemetry and imu_file_kind(imu) == "acc":  # t,ax,ay,az: steps, bouts, gravity pitch/roll, no yaw
-            columns, imu_info = _acc_only_columns(imu, imu_offset_s or 0.0)
+            columns, imu_info = _acc_only_columns(imu, imu_offset_s or 0.0, imu_filter, imu_calib)
         else:
             columns, imu_info = _imu_only_columns(imu, imu_filter, imu_offset_s, imu_calib)
         imu_input = columns.pop("_imu_input")
@@ -1077,6 +1115,10 @@ def load_session(session_id: int, data_dir: str | Path | None = None) -> Session
         session_record,
     )
 
+    if isinstance(session_id, bool) or not isinstance(session_id, int | np.integer):
+        # review: 'abc' raised ValueError, None TypeError, and 1.7 loaded session 1
+        msg = f"session_id must be a whole number (see 'walkmon sessions list'), got {session_id!r}"
+        raise InvalidInputError(msg)
     folder = Path(data_dir).expanduser() if data_dir is not None else default_data_dir()
     conn = open_database(folder, read_only=True)  # reading never writes (a read-only file works too)
     try:

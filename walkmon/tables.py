@@ -308,6 +308,14 @@ def imu_file_kind(path: str | Path) -> str:
         imu = read_table(path, IMU_COLUMNS, skip_bad_rows=True)
         if len(imu["t"]) >= 0.5 * n_rows:
             return "imu"
+    # some gyroscope columns but not all (a typo in a header): not an accelerometer's file with the gyroscope
+    # silently dropped (review: no 'gz' read as accelerometer-only, yaw and turns lost without a word)
+    present = [c for c in ("gx", "gy", "gz") if _header_has(path, (c,))]
+    if present and len(present) < 3:
+        missing = ", ".join(c for c in ("gx", "gy", "gz") if c not in present)
+        msg = (f"{path}: gyroscope columns {', '.join(present)} but no {missing}: an IMU file needs t,gx,gy,gz,ax,ay,az "
+               "(an accelerometer alone: t,ax,ay,az)")
+        raise InvalidInputError(msg)
     return "acc"
 
 

@@ -434,8 +434,12 @@ def _check(t: ArrayLike, *arrays: ArrayLike) -> NDArray[np.float64]:
         raise InvalidInputError(msg)
     for a in arrays:
         arr = np.asarray(a, dtype=float)
-        if arr.shape[0] != tt.size or not np.all(np.isfinite(arr)):
-            msg = f"signals must be finite with one row per time stamp ({tt.size}), got shape {arr.shape}"
+        if arr.shape[0] != tt.size:
+            msg = f"signals must have one row per time stamp ({tt.size}), got shape {arr.shape}"
+            raise InvalidInputError(msg)
+        if not np.all(np.isfinite(arr)):  # the first one named (review: the shape was named, which was right)
+            row = int(np.flatnonzero(~np.isfinite(arr.reshape(tt.size, -1)).all(axis=1))[0])
+            msg = f"signals must be finite: sample {row + 1} (t={tt[row]:.9g}) has {arr[row].tolist()}"
             raise InvalidInputError(msg)
     return tt
 

@@ -37,6 +37,7 @@ The heavy lifting is in :func:`analyze_gait`, which also returns the intermediat
 
 from __future__ import annotations
 
+import copy
 import logging
 import math
 from collections.abc import Mapping
@@ -250,7 +251,9 @@ class Indicators:
             "standing_end_s": None if self.standing_end_s is None else [_num(v) for v in self.standing_end_s],
             "reference_deg": {k: _num(v) for k, v in self.reference_deg.items()},
             "drift_removed_deg": {k: _num(v) for k, v in self.drift_removed_deg.items()},
-            **dict(self.session),
+            # a deep copy: the session's nested bouts and segments are this object's, and a caller editing the
+            # returned dict changed the analysis, its write() and save() (review of the Python API)
+            **copy.deepcopy(dict(self.session)),
         }
 
 

@@ -961,15 +961,24 @@ def analyze_session(
         ref = np.asarray(reference_deg, dtype=float).reshape(3)
         if level is not None:
             ref = level_frame_angles(ref[None, :], level)[0]
-        ref_source, stand = "given (the live monitor's calibration)", None
+        ref_source, stand = "given (reference_deg: the caller's, or the live monitor's calibration)", None
     else:
         tilt = None if has_abs or not seg.turns else heading_free_angles(t, a, a[0], v_level)[:, [0, 2]]
         ref, ref_source, stand = _upright(t, a, seg, absd, s, tilt=tilt)
     ref_camera = ref if level is None else level_frame_angles(ref[None, :], level.T)[0]  # in the input's frame
+    up_given = None
+    if reference_deg is not None and has_abs and down is not None:
+        # a given upright pose with gravity known: its gravity angles (review: it was ignored, up_abs level, and
+        # the output still said 'given')
+        from walkmon.consts import rotation_from_angles_deg
+
+        r_ref = rotation_from_angles_deg(*(np.array([v]) for v in ref_camera))[0]
+        up_given = np.asarray(gravity_angles_deg_from_gravity(r_ref.T @ down), dtype=float)
     a, ref_out, ref_source, unc = _heading_free(t, a, absd if has_abs else None, ref, ref_source, stand, seg, s,
                                                 down=v_level, vertical_deg=_vertical_uncertainty(vert, ref_camera),
                                                 stance_gravity=None if imu is None else partial(_stance_gravity_deg,
-                                                                                                imu))
+                                                                                                imu),
+                                                up_abs_given=up_given)
     if not has_abs:
         ref_out = ref_camera[[0, 2]]  # the upright pose reported in the input's start-relative angles
     if unc is None and has_abs and stand is None and reference_deg is None and base is None \
@@ -1156,6 +1165,7 @@ def _heading_free(
     t: NDArray, a: NDArray, absd: NDArray | None, ref: NDArray, ref_source: str, stand: tuple[float, float] | None,
     seg: Segmentation, s: SessionSettings, *, down: NDArray | None = None, vertical_deg: float = 0.0,
     stance_gravity: Callable[[tuple[float, float]], NDArray[np.float64] | None] | None = None,
+    up_abs_given: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray, NDArray, str, ReferenceUncertainty | None]:
     """Heading-free inclinations: gravity's pitch/roll with an IMU (``absd``, when mostly finite), else the tilt
     from the upright pose (re-referenced at later still phases, :func:`_reference_model`). Returns the angles,
@@ -1170,7 +1180,7 @@ def _heading_free(
         # stop, and its median over a stance right after walking read the sensor's tilt 1-3 deg off (user review:
         # a simulated pause after a walk, -11.9 deg against the still accelerometer's -8.9; every later segment's
         # pitch inclination read 3 deg high and normal walking 'unclassified')
-        up_abs = np.zeros(2)
+        up_abs = np.zeros(2) if up_abs_given is None else np.asarray(up_abs_given, dtype=float)
         if stand is not None:
             m = (t >= stand[0]) & (t <= stand[1])
             measured = None if stance_gravity is None else stance_gravity(stand)
