@@ -120,7 +120,9 @@ class FusionSettings:
     frames on and off, and the ok frames between carry a systematic error (0.06-0.09 deg a frame, up to 1.2 deg
     a second) that the filter, weighting them as 0.02 deg, learnt as a gyroscope bias and kept integrating
     (user review: a mid-walk 90 + 180 deg turning clip's fused pitch 1.3 deg RMS where the video alone had 0.4;
-    with 3 guard frames 0.48, and lower on four other turning clips, helper measurement 2026-11-28).
+    with 3 guard frames 0.48, and lower on four other turning clips, helper measurement 2026-11-28). Offline the
+    guard applies only while it leaves at least ``GUARD_MIN_KEPT`` (20 %) of the measured frames (that clip: 43 %);
+    flags every few frames would leave none (review), and the vision is then used unguarded, with a warning.
     """
 
     attitude: AttitudeSettings = DEFAULT_ATTITUDE_SETTINGS
@@ -477,7 +479,14 @@ def fuse_recording(
     """
     t, g, a, ft, Rv, ok = _recording_arrays(imu_t_s, gyroscope_rad_s, accelerometer_m_s2, frame_t_s, visual_rotations, visual_ok)
     if Rv is not None:
-        ok = away_from_flags(ok, settings.visual_guard_frames)
+        guarded = away_from_flags(ok, settings.visual_guard_frames)
+        if guarded.sum() >= GUARD_MIN_KEPT * ok.sum():
+            ok = guarded
+        else:
+            # flags so frequent (every few frames) that the guard would leave next to no vision (review: every 5th
+            # frame flagged, none used, the fused yaw 2-5 deg off where the vision held it to 0.7-2.3): unguarded
+            _log.warning("fusion: the estimator flagged frames so often that guarding their neighbours would leave "
+                         "%d of %d measured frames: all %d used", int(guarded.sum()), int(ok.sum()), int(ok.sum()))
     if settings.accelerometer_calibration is not None:
         a = settings.accelerometer_calibration.correct(a)
     rate = sampling_rate_hz(t)  # gaps left out (walkmon.sampling)
@@ -527,6 +536,10 @@ def fuse_recording(
         gravity_resets=fusion.gravity_resets,
         frames_without_imu=fusion.frames_without_imu,
     )
+
+
+#: The share of the measured frames the guard (``visual_guard_frames``) must leave for it to apply offline.
+GUARD_MIN_KEPT = 0.2
 
 
 def away_from_flags(ok: ArrayLike, guard: int) -> NDArray[np.bool_]:
@@ -918,6 +931,7 @@ class LiveFusion:
             reason = "imu_gap"
         elif not fused:
             reason = "imu_gap" if self._needs_restart else "warmup"
+        self._since_flag = 0 if not ok else self._since_flag + 1  # camera-only frames count too (review)
         if reason:
             out = self._camera_only(Rv)
             self.n_camera_only[reason] += 1
@@ -929,7 +943,6 @@ class LiveFusion:
         assert self._fusion is not None
         # the ok frames just after a flagged one are no measurement (visual_guard_frames; offline the frames just
         # before one too, which live would need a delay for)
-        self._since_flag = 0 if not ok else self._since_flag + 1
         guarded = ok and self._since_flag > self.settings.fusion.visual_guard_frames
         est = self._fusion.push_frame(max(t_s, self._filter_t or t_s), Rv, guarded)
         if self._fresh:
