@@ -57,6 +57,14 @@ def test_a_cameras_upper_case_names_pair_as_the_lower_case_ones(tmp_path: Path) 
     assert sorted(recs) == ["WALK"]
     assert recs["WALK"].imu == (tmp_path / "up/WALK_IMU.csv").resolve()
     assert recs["WALK"].calib == (tmp_path / "up/WALK.YAML").resolve()
+    # review: two videos differing only by case took the same IMU; a pattern's folder was not looked in
+    _touch(tmp_path, "two/walk.mp4", "two/WALK.MP4", "two/WALK_IMU.csv")
+    recs = find_recordings([tmp_path / "two/walk.mp4", tmp_path / "two/WALK.MP4", tmp_path / "two/WALK_IMU.csv"])
+    imus = [r.imu for r in recs if r.video is not None]
+    assert imus.count((tmp_path / "two/WALK_IMU.csv").resolve()) == 1
+    _touch(tmp_path, "s/walk.mp4", "s/walk_imu.csv", "s/imu/other.csv")
+    (rec,) = [r for r in find_recordings([tmp_path / "s/walk.mp4"], imu_patterns=["imu/{stem}_imu.csv"])]
+    assert rec.imu is None  # s/imu/walk_imu.csv does not exist; s/walk_imu.csv is not the pattern's
 
 
 def test_explicit_calib_patterns_and_no_pairing(tmp_path: Path) -> None:

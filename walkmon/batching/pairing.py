@@ -143,7 +143,10 @@ def _expand(inputs: Iterable[str | os.PathLike[str]], exclude: Path | None) -> t
     return explicit, scanned
 
 
-def _first_match(video: Path, patterns: Sequence[str], sole_video: bool) -> Path | None:
+def _first_match(video: Path, patterns: Sequence[str], sole_video: bool, *, loose: bool = True,
+                 taken: set[Path] | None = None) -> Path | None:
+    """The first existing file a pattern names for ``video``; ``loose``: else the one file in the pattern's own
+    folder whose name is the pattern's but for case (not one in ``taken``)."""
     for pattern in patterns:
         if "{stem}" not in pattern and not sole_video:
             continue
@@ -155,9 +158,11 @@ def _first_match(video: Path, patterns: Sequence[str], sole_video: bool) -> Path
         if candidate.is_file():
             return candidate.resolve()
         # a camera's upper-case names (WALK.MP4 beside WALK_IMU.csv): the pattern matched without regard to case,
-        # as the IMU files are found (user review: one walk became two recordings, unpaired, without a word)
-        if video.parent.is_dir():
-            same = [p for p in video.parent.iterdir() if p.name.lower() == candidate.name.lower() and p.is_file()]
+        # as the IMU files are found (user review: one walk became two recordings, unpaired, without a word); in
+        # the pattern's own folder (review: 'imu/{stem}_imu.csv' took the video's folder's file)
+        if loose and candidate.parent.is_dir():
+            same = [p for p in candidate.parent.iterdir()
+                    if p.name.lower() == candidate.name.lower() and p.is_file() and p.resolve() not in (taken or ())]
             if len(same) == 1:
                 return same[0].resolve()
     return None
@@ -225,9 +230,16 @@ def find_recordings(
 
     recs: list[tuple[Path, Path | None, Path | None, Path | None, str]] = []  # source, video, imu, calib, problem
     claimed: set[Path] = set()
+    # exact names first, then the case-insensitive ones for the videos still without an IMU, never a file taken
+    # (review: walk.mp4 and WALK.MP4 in one folder both took WALK_IMU.csv)
+    exact = {v: (_first_match(v, patterns, videos_per_folder[v.parent] == 1, loose=False) if patterns else None)
+             for v in videos}
+    claimed.update(i for i in exact.values() if i is not None)
     for v in videos:
         sole = videos_per_folder[v.parent] == 1
-        imu = _first_match(v, patterns, sole) if patterns else None
+        imu = exact[v]
+        if imu is None and patterns:
+            imu = _first_match(v, patterns, sole, taken=claimed)
         if imu is not None:
             claimed.add(imu)
         cal = calib_path or _first_match(v, CALIB_PATTERNS, True)
