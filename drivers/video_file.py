@@ -53,14 +53,19 @@ MAX_FRAME_INTERVAL_S = 1.0
 LOOKAHEAD_FRAMES = 4
 
 
+#: First box types of an ISO base media / QuickTime file (an older MOV starts with 'wide', 'moov' or 'mdat', not
+#: 'ftyp': review)
+_ISO_FIRST_BOXES = (b"ftyp", b"moov", b"mdat", b"wide", b"free", b"skip", b"pnot")
+
+
 def _is_iso_media(path: Path) -> bool:
-    """An ISO base media file (MP4, MOV, 3GP: an ``ftyp`` box first), whose header lists its frames."""
+    """An ISO base media or QuickTime file (MP4, MOV, 3GP), whose header lists its frames."""
     try:
         with open(path, "rb") as fh:
             head = fh.read(12)
     except OSError:
         return False
-    return len(head) >= 8 and head[4:8] == b"ftyp"
+    return len(head) >= 8 and head[4:8] in _ISO_FIRST_BOXES
 
 
 def max_interval_s(fps: float) -> float:

@@ -178,6 +178,14 @@ def test_a_pause_does_not_hide_a_damaged_mp4(tmp_path: Path) -> None:
     with video, pytest.raises(InvalidInputError, match="damaged: decoding failed at frame 150 of 300"):
         for _ in video:
             pass
+    # an older QuickTime file starts with another box than 'ftyp' (review: taken for an MKV, the pause excused)
+    from walkmon.drivers.video_file import _is_iso_media
+
+    head = (tmp_path / "v.mp4").read_bytes()
+    assert head[4:8] == b"ftyp"
+    (tmp_path / "old.mov").write_bytes(head[:4] + b"wide" + head[8:])
+    (tmp_path / "x.mkv").write_bytes(b"\x1aE\xdf\xa3" + bytes(40))  # an EBML (Matroska) header
+    assert _is_iso_media(tmp_path / "old.mov") and not _is_iso_media(tmp_path / "x.mkv")
 
 
 def test_a_time_lapse_below_one_frame_a_second_keeps_its_times(tmp_path: Path) -> None:
