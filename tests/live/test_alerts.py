@@ -83,6 +83,11 @@ def test_one_hop_not_walking_mid_walk_does_not_clear_an_alert_that_holds() -> No
     assert st.push(blip) == []
     assert feed(st, [ind(float(t), pitch=-16.0) for t in range(9, 20)]) == []
     assert st.active == ("lean_forward",)
+    # not walking, then back inside: neither for 2 s yet, so still raised (review: cleared after 1 s inside)
+    assert st.push(dataclasses.replace(ind(20.0, -16.0, walking=False), activity="unknown")) == []
+    assert feed(st, [ind(21.0, pitch=-5.0)]) == []
+    (ev,) = feed(st, [ind(22.0, pitch=-5.0), ind(23.0, pitch=-5.0)])
+    assert ev.state == "cleared" and ev.t_s == 23.0  # 2 s back inside
 
 
 def test_shoulder_unsteady_asymmetry_conditions() -> None:

@@ -112,7 +112,8 @@ class AlertEvent:
 class _State:
     active: bool = False
     pending_since: float | None = None
-    clear_since: float | None = None
+    clear_since: float | None = None  # walking, back inside the threshold since
+    idle_since: float | None = None  # not walking since (a timer of its own: review)
     last_cleared: float | None = None
 
 
@@ -180,13 +181,14 @@ class AlertStage:
                 # clear_delay_s: one unknown hop mid-walk, or a U-turn, cleared it at once, and the cooldown then
                 # kept the posture that still held from being said again (user review: a bent walker's alert
                 # cleared at a 1.7 s turn, 15 s more of bent walking unsaid)
-                st.pending_since = None
+                st.pending_since = st.clear_since = None  # 1 s inside and 1 s not walking are neither 2 s
                 if st.active:
-                    if st.clear_since is None:
-                        st.clear_since = t
-                    if t - st.clear_since >= self.settings.clear_delay_s - 1e-9:
+                    if st.idle_since is None:
+                        st.idle_since = t
+                    if t - st.idle_since >= self.settings.clear_delay_s - 1e-9:
                         events.append(self._clear(cond, st, t, value, off_thr, f"{_not_walking_why(ind)}: alert cleared"))
                 continue
+            st.idle_since = None
             if not st.active:
                 if finite and value > on_thr:
                     if st.pending_since is None:
@@ -220,5 +222,5 @@ class AlertStage:
 
     @staticmethod
     def _clear(cond: str, st: _State, t: float, value: float, thr: float, msg: str) -> AlertEvent:
-        st.active, st.pending_since, st.clear_since, st.last_cleared = False, None, None, t
+        st.active, st.pending_since, st.clear_since, st.idle_since, st.last_cleared = False, None, None, None, t
         return AlertEvent(t, cond, "cleared", value, thr, msg)
