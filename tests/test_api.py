@@ -247,6 +247,15 @@ def test_the_live_reference_a_report_falls_back_on_is_the_monitors_last(tmp_path
     assert ref is not None and ref.tolist() == [2.0, 0.0, 0.5]
 
 
+def test_a_sessions_hops_carry_their_activity(imu_walk, tmp_path: Path) -> None:  # noqa: ANN001
+    """Review: Session.hops had no activity (only inside each hop's JSON), where 'sessions export' gives it."""
+    _, a = imu_walk
+    sid = a.save(tmp_path / "db")
+    hops = walkmon.load_session(sid, tmp_path / "db").hops
+    want = [str(act) for _t, act, *_ in a.timeline]
+    assert list(hops["activity"]) == want and "walking" in want and "standing" in want
+
+
 @pytest.fixture(scope="module")
 def imu_walk(tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201
     """A 24 s IMU-only walk (2 s standing, normal 10 s, bent 10 s, 2 s standing) and its analysis."""

@@ -996,14 +996,15 @@ def _column(values: Sequence[object], text: bool) -> NDArray[Any]:
     return np.asarray([math.nan if v is None else v for v in values], dtype=float)
 
 
-_SESSION_TEXT = {"model", "status", "label", "json", "kind", "state", "message", "reason"}
+_SESSION_TEXT = {"model", "status", "label", "json", "kind", "state", "message", "reason", "activity"}
 
 
 @dataclass(frozen=True, eq=False)
 class Session:
     """A logged session (:func:`load_session`): its ``record`` (the sessions row: kind, camera, imu,
     started_utc, ended_utc, end_reason, config, versions, meta, ...) and its tables as numpy structured arrays
-    (NULL as NaN, or '' in text columns): ``frames``, ``imu``, ``hops``, ``alerts``, ``calibrations``."""
+    (NULL as NaN, or '' in text columns): ``frames``, ``imu``, ``hops`` (with each hop's ``activity``: standing,
+    walking, turning or unknown, '' where it has none), ``alerts``, ``calibrations``."""
 
     id: int
     record: Mapping[str, Any]
@@ -1104,6 +1105,19 @@ class Session:
                         accelerometer_calibration=cal)
 
 
+def _hop_activity(text: object) -> str:
+    """A hop's activity (standing, walking, turning, unknown) from its JSON column; '' where it has none."""
+    import json  # noqa: PLC0415
+
+    if not isinstance(text, str) or not text:
+        return ""
+    try:
+        doc = json.loads(text)
+    except ValueError:
+        return ""
+    return str(doc.get("activity") or "") if isinstance(doc, dict) else ""
+
+
 def load_session(session_id: int, data_dir: str | Path | None = None) -> Session:
     """A session of the session log in ``data_dir`` (default ~/.local/share/walkmon); see :class:`Session`.
     An unknown id or a missing database raises InvalidInputError."""
@@ -1126,6 +1140,8 @@ def load_session(session_id: int, data_dir: str | Path | None = None) -> Session
         tables = {}
         for name in TABLE_COLUMNS:
             cols = read_session_table(conn, int(session_id), name)
+            if name == "hops":  # each hop's activity, from its JSON (as 'walkmon sessions export' gives it: review)
+                cols = {**cols, "activity": [_hop_activity(j) for j in cols.get("json", [])]}
             tables[name] = _structured({c: _column(v, c in _SESSION_TEXT) for c, v in cols.items()})
     finally:
         conn.close()
