@@ -274,7 +274,8 @@ def test_a_given_reference_with_gravity_is_used_and_said(imu_walk) -> None:  # n
     stance = ang[t < 1.5].mean(axis=0)
     found = walkmon.analyze_angles(t, ang, abs_angles_deg=ab).indicators
     same = walkmon.analyze_angles(t, ang, abs_angles_deg=ab, reference_deg=stance).indicators
-    down5 = walkmon.analyze_angles(t, ang, abs_angles_deg=ab, reference_deg=stance + [-5.0, 0.0, 0.0]).indicators
+    down5 = walkmon.analyze_angles(t, ang, abs_angles_deg=ab, reference_deg=dict(zip(
+        ("pitch", "yaw", "roll"), stance + [-5.0, 0.0, 0.0], strict=True))).indicators  # as indicators.json has it
     assert same["upright_reference"]["source"].startswith("given")
     for f, g, h in zip(found["segments"], same["segments"], down5["segments"], strict=True):
         p = f["axes"]["pitch"]["inclination_mean"]
@@ -323,6 +324,8 @@ def test_an_accelerometer_file_takes_its_calibration_and_checks_the_filter(imu_w
 
 @pytest.mark.parametrize(("call", "match"), [
     (lambda a, p: walkmon.analyze_angles(a.t_s, a.angles_deg, reference_deg=[1, 2]), "reference_deg must be 3"),
+    (lambda a, p: walkmon.analyze_angles(a.t_s, a.angles_deg, reference_deg="abc"), "reference_deg must be 3"),
+    (lambda a, p: walkmon.analyze_angles(a.t_s, a.angles_deg, reference_deg={"pitch": 1}), "reference_deg must be 3"),
     (lambda a, p: walkmon.analyze_angles(a.t_s, a.angles_deg, meta=[1, 2]), "meta must be a mapping"),
     (lambda a, p: a.save(p / "db", meta=[1, 2]), "meta must be a mapping"),
     (lambda a, p: walkmon.analyze(imu=p / "imu.csv", imu_offset_s="abc"), "imu_offset_s must be a finite"),

@@ -317,10 +317,16 @@ def analyze_angles(
     # the other arguments checked too (review: a reference of 2 numbers, or a list as meta, raised a bare
     # ValueError / TypeError from deep inside)
     if reference_deg is not None:
-        ref = np.asarray(reference_deg, dtype=float).reshape(-1)
+        if isinstance(reference_deg, Mapping):  # as indicators.json stores it: {pitch, yaw, roll}
+            reference_deg = [reference_deg.get(k) for k in ("pitch", "yaw", "roll")]
+        try:
+            ref = np.asarray(reference_deg, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            ref = np.full(0, np.nan)  # refused below (review: a bare ValueError / TypeError)
         if ref.shape != (3,) or not np.isfinite(ref).all():
             msg = f"reference_deg must be 3 finite numbers (pitch, yaw, roll in degrees), got {reference_deg!r}"
             raise InvalidInputError(msg)
+        reference_deg = ref
     if meta is not None and not isinstance(meta, Mapping):
         msg = f"meta must be a mapping (a dict), got {type(meta).__name__}"
         raise InvalidInputError(msg)

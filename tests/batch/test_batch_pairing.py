@@ -65,6 +65,10 @@ def test_a_cameras_upper_case_names_pair_as_the_lower_case_ones(tmp_path: Path) 
     _touch(tmp_path, "s/walk.mp4", "s/walk_imu.csv", "s/imu/other.csv")
     (rec,) = [r for r in find_recordings([tmp_path / "s/walk.mp4"], imu_patterns=["imu/{stem}_imu.csv"])]
     assert rec.imu is None  # s/imu/walk_imu.csv does not exist; s/walk_imu.csv is not the pattern's
+    # the patterns' order holds: {stem}_imu.csv by case before the folder's shared imu.csv (review)
+    _touch(tmp_path, "o/WALK.MP4", "o/WALK_IMU.csv", "o/imu.csv")
+    recs = _by_name(find_recordings([tmp_path / "o"]))
+    assert recs["WALK"].imu == (tmp_path / "o/WALK_IMU.csv").resolve() and recs["imu"].kind == "imu"
 
 
 def test_explicit_calib_patterns_and_no_pairing(tmp_path: Path) -> None:

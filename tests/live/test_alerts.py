@@ -88,6 +88,11 @@ def test_one_hop_not_walking_mid_walk_does_not_clear_an_alert_that_holds() -> No
     assert feed(st, [ind(21.0, pitch=-5.0)]) == []
     (ev,) = feed(st, [ind(22.0, pitch=-5.0), ind(23.0, pitch=-5.0)])
     assert ev.state == "cleared" and ev.t_s == 23.0  # 2 s back inside
+    # upright walking that flickers to 'not walking' one hop in three clears it too (review: raised for a minute)
+    st = AlertStage()
+    feed(st, [ind(float(t), pitch=-16.0) for t in range(10)])
+    ev = feed(st, [ind(float(t), pitch=-3.0, walking=t % 3 != 0) for t in range(10, 70)])
+    assert [e.state for e in ev] == ["cleared"] and ev[0].t_s <= 16.0 and st.active == ()
 
 
 def test_shoulder_unsteady_asymmetry_conditions() -> None:

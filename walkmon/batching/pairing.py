@@ -26,6 +26,7 @@ Only file names are looked at here (and folders listed); no file is opened.
 
 from __future__ import annotations
 
+import contextlib
 import glob
 import os
 import re
@@ -168,6 +169,19 @@ def _first_match(video: Path, patterns: Sequence[str], sole_video: bool, *, loos
     return None
 
 
+def _exact_matches(video: Path, patterns: Sequence[str], sole_video: bool) -> set[Path]:
+    """Every existing file a pattern names exactly for ``video``."""
+    out = set()
+    for pattern in patterns:
+        if "{stem}" not in pattern and not sole_video:
+            continue
+        with contextlib.suppress(KeyError, IndexError, ValueError):  # a bad pattern: _first_match says so
+            candidate = video.parent / pattern.format(stem=video.stem)
+            if candidate.is_file():
+                out.add(candidate.resolve())
+    return out
+
+
 def _unique_names(paths: Sequence[Path]) -> list[str]:
     """Shortest ``parent-...-stem`` names that tell the paths apart (case-insensitively)."""
     def name(p: Path, depth: int) -> str:
@@ -230,16 +244,14 @@ def find_recordings(
 
     recs: list[tuple[Path, Path | None, Path | None, Path | None, str]] = []  # source, video, imu, calib, problem
     claimed: set[Path] = set()
-    # exact names first, then the case-insensitive ones for the videos still without an IMU, never a file taken
-    # (review: walk.mp4 and WALK.MP4 in one folder both took WALK_IMU.csv)
-    exact = {v: (_first_match(v, patterns, videos_per_folder[v.parent] == 1, loose=False) if patterns else None)
-             for v in videos}
-    claimed.update(i for i in exact.values() if i is not None)
+    # the patterns in their order, each by its exact name, then without regard to case; a case-insensitive match
+    # never takes a file another video took or names exactly (review: walk.mp4 and WALK.MP4 in one folder both took
+    # WALK_IMU.csv; and matching every exact name first broke the patterns' order, WALK.MP4 taking imu.csv)
+    exact = {v: _exact_matches(v, patterns, videos_per_folder[v.parent] == 1) for v in videos}
     for v in videos:
         sole = videos_per_folder[v.parent] == 1
-        imu = exact[v]
-        if imu is None and patterns:
-            imu = _first_match(v, patterns, sole, taken=claimed)
+        others = set().union(*(m for w, m in exact.items() if w != v))
+        imu = _first_match(v, patterns, sole, taken=claimed | others) if patterns else None
         if imu is not None:
             claimed.add(imu)
         cal = calib_path or _first_match(v, CALIB_PATTERNS, True)
