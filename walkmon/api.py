@@ -317,10 +317,11 @@ def analyze_angles(
     # the other arguments checked too (review: a reference of 2 numbers, or a list as meta, raised a bare
     # ValueError / TypeError from deep inside)
     if reference_deg is not None:
-        if isinstance(reference_deg, Mapping):  # as indicators.json stores it: {pitch, yaw, roll}
-            reference_deg = [reference_deg.get(k) for k in ("pitch", "yaw", "roll")]
+        given: Any = reference_deg
+        if isinstance(given, Mapping):  # as indicators.json stores it: {pitch, yaw, roll}
+            given = [given.get(k) for k in ("pitch", "yaw", "roll")]
         try:
-            ref = np.asarray(reference_deg, dtype=float).reshape(-1)
+            ref = np.asarray(given, dtype=float).reshape(-1)
         except (TypeError, ValueError):
             ref = np.full(0, np.nan)  # refused below (review: a bare ValueError / TypeError)
         if ref.shape != (3,) or not np.isfinite(ref).all():
