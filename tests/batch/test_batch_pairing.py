@@ -69,6 +69,13 @@ def test_a_cameras_upper_case_names_pair_as_the_lower_case_ones(tmp_path: Path) 
     _touch(tmp_path, "o/WALK.MP4", "o/WALK_IMU.csv", "o/imu.csv")
     recs = _by_name(find_recordings([tmp_path / "o"]))
     assert recs["WALK"].imu == (tmp_path / "o/WALK_IMU.csv").resolve() and recs["imu"].kind == "imu"
+    # a file another video names exactly but does not take stays free for this one (review: left unpaired)
+    _touch(tmp_path, "q/Walk.mp4", "q/walk.mp4", "q/walk.imu.csv", "q/walk_imu.csv")
+    recs = find_recordings([tmp_path / "q"])
+    # walk.mp4 takes its exact {stem}.imu.csv (the first pattern), Walk.mp4 the next pattern's file by case
+    assert sorted((r.video.name, r.imu.name) for r in recs if r.video is not None and r.imu is not None) == [
+        ("Walk.mp4", "walk_imu.csv"), ("walk.mp4", "walk.imu.csv")]
+    assert all(r.video is not None for r in recs)  # no IMU left over as a recording of its own
 
 
 def test_explicit_calib_patterns_and_no_pairing(tmp_path: Path) -> None:

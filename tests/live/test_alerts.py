@@ -93,6 +93,11 @@ def test_one_hop_not_walking_mid_walk_does_not_clear_an_alert_that_holds() -> No
     feed(st, [ind(float(t), pitch=-16.0) for t in range(10)])
     ev = feed(st, [ind(float(t), pitch=-3.0, walking=t % 3 != 0) for t in range(10, 70)])
     assert [e.state for e in ev] == ["cleared"] and ev[0].t_s <= 16.0 and st.active == ()
+    for walking_every in (2, 3):  # walking one hop in two, or in three: each walking hop counts its own second
+        st = AlertStage()
+        feed(st, [ind(float(t), pitch=-16.0) for t in range(10)])
+        ev = feed(st, [ind(float(t), pitch=-3.0, walking=t % walking_every == 0) for t in range(10, 40)])
+        assert [e.state for e in ev] == ["cleared"] and st.active == (), walking_every
 
 
 def test_shoulder_unsteady_asymmetry_conditions() -> None:

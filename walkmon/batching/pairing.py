@@ -26,7 +26,6 @@ Only file names are looked at here (and folders listed); no file is opened.
 
 from __future__ import annotations
 
-import contextlib
 import glob
 import os
 import re
@@ -169,19 +168,6 @@ def _first_match(video: Path, patterns: Sequence[str], sole_video: bool, *, loos
     return None
 
 
-def _exact_matches(video: Path, patterns: Sequence[str], sole_video: bool) -> set[Path]:
-    """Every existing file a pattern names exactly for ``video``."""
-    out = set()
-    for pattern in patterns:
-        if "{stem}" not in pattern and not sole_video:
-            continue
-        with contextlib.suppress(KeyError, IndexError, ValueError):  # a bad pattern: _first_match says so
-            candidate = video.parent / pattern.format(stem=video.stem)
-            if candidate.is_file():
-                out.add(candidate.resolve())
-    return out
-
-
 def _unique_names(paths: Sequence[Path]) -> list[str]:
     """Shortest ``parent-...-stem`` names that tell the paths apart (case-insensitively)."""
     def name(p: Path, depth: int) -> str:
@@ -244,16 +230,22 @@ def find_recordings(
 
     recs: list[tuple[Path, Path | None, Path | None, Path | None, str]] = []  # source, video, imu, calib, problem
     claimed: set[Path] = set()
-    # the patterns in their order, each by its exact name, then without regard to case; a case-insensitive match
-    # never takes a file another video took or names exactly (review: walk.mp4 and WALK.MP4 in one folder both took
-    # WALK_IMU.csv; and matching every exact name first broke the patterns' order, WALK.MP4 taking imu.csv)
-    exact = {v: _exact_matches(v, patterns, videos_per_folder[v.parent] == 1) for v in videos}
+    # pattern by pattern over every video: first each exact name, then without regard to case, never a file taken
+    # (review: walk.mp4 and WALK.MP4 in one folder both took WALK_IMU.csv; matching every exact name first broke
+    # the patterns' order, WALK.MP4 taking imu.csv; reserving every file another video named exactly left one
+    # unpaired)
+    imus: dict[Path, Path | None] = dict.fromkeys(videos)
+    for pattern in patterns or ():
+        for loose in (False, True):
+            for v in videos:
+                if imus[v] is not None:
+                    continue
+                found = _first_match(v, (pattern,), videos_per_folder[v.parent] == 1, loose=loose, taken=claimed)
+                if found is not None and found not in claimed:  # one video per file (walk.mp4, walk.avi)
+                    imus[v] = found
+                    claimed.add(found)
     for v in videos:
-        sole = videos_per_folder[v.parent] == 1
-        others = set().union(*(m for w, m in exact.items() if w != v))
-        imu = _first_match(v, patterns, sole, taken=claimed | others) if patterns else None
-        if imu is not None:
-            claimed.add(imu)
+        imu = imus[v]
         cal = calib_path or _first_match(v, CALIB_PATTERNS, True)
         recs.append((v, v, imu, cal, ""))
     for f in files:

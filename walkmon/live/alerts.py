@@ -112,11 +112,13 @@ class AlertEvent:
 class _State:
     active: bool = False
     pending_since: float | None = None
-    # walking back inside the threshold: the time so far (None: not counting), counted between consecutive such
-    # hops; a hop not walking pauses it, a walking hop outside the threshold ends it (review: a reset at every hop
-    # not walking kept an alert raised through a minute of upright walking that flickered)
+    # walking back inside the threshold: the time so far (None: not counting). Each such hop adds its own
+    # interval (since the hop before it, of any kind) but the first; a hop not walking adds nothing and pauses
+    # it, a walking hop outside the threshold ends it (review: a reset at every hop not walking kept an alert raised
+    # through upright walking that flickered, and crediting only consecutive inside hops kept it raised when
+    # walking alternated hop by hop)
     inside_s: float | None = None
-    last_inside_t: float | None = None
+    last_hop_t: float | None = None
     idle_since: float | None = None  # not walking since (a timer of its own: review)
     last_cleared: float | None = None
 
@@ -185,7 +187,8 @@ class AlertStage:
                 # clear_delay_s: one unknown hop mid-walk, or a U-turn, cleared it at once, and the cooldown then
                 # kept the posture that still held from being said again (user review: a bent walker's alert
                 # cleared at a 1.7 s turn, 15 s more of bent walking unsaid)
-                st.pending_since = st.last_inside_t = None  # 1 s inside and 1 s not walking are neither 2 s
+                st.pending_since = None  # 1 s inside and 1 s not walking are neither 2 s
+                st.last_hop_t = t
                 if st.active:
                     if st.idle_since is None:
                         st.idle_since = t
@@ -199,22 +202,22 @@ class AlertStage:
                         st.pending_since = t
                     cooled = st.last_cleared is None or t - st.last_cleared >= self.settings.cooldown_s
                     if t - st.pending_since >= self.settings.delay_s - 1e-9 and cooled:
-                        st.active, st.inside_s, st.last_inside_t = True, None, None
+                        st.active, st.inside_s = True, None
                         side = "right" if ind.posture_deg[2] > 0 else "left"
                         msg = template.format(v=value, p=100 * value, side=side)
                         events.append(AlertEvent(t, cond, "raised", value, on_thr, msg))
                 else:
                     st.pending_since = None
             elif finite and value > off_thr:
-                st.inside_s = st.last_inside_t = None
+                st.inside_s = None
             else:
                 if st.inside_s is None:
                     st.inside_s = 0.0
-                elif st.last_inside_t is not None:
-                    st.inside_s += t - st.last_inside_t
-                st.last_inside_t = t
+                elif st.last_hop_t is not None:
+                    st.inside_s += t - st.last_hop_t
                 if st.inside_s >= self.settings.clear_delay_s - 1e-9:
                     events.append(self._clear(cond, st, t, value, off_thr, f"{cond.replace('_', ' ')}: cleared"))
+            st.last_hop_t = t
         return events
 
     def close(self, t_s: float) -> list[AlertEvent]:
@@ -230,5 +233,5 @@ class AlertStage:
     @staticmethod
     def _clear(cond: str, st: _State, t: float, value: float, thr: float, msg: str) -> AlertEvent:
         st.active, st.pending_since, st.idle_since, st.last_cleared = False, None, None, t
-        st.inside_s = st.last_inside_t = None
+        st.inside_s = None
         return AlertEvent(t, cond, "cleared", value, thr, msg)
