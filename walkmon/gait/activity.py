@@ -261,6 +261,9 @@ class TrunkSignals:
     #: gravity's direction in the sensor per sample, (N,3) unit vectors pointing up (:func:`gravity_direction`),
     #: for the bouts' tilt test (:func:`_tilt_wanders`); None: not measured (camera angles)
     gravity_up: NDArray[np.float64] | None = None
+    #: the step signal's gait band per rate, filled by :func:`gait_band` (one filter over the recording, not one
+    #: per bout and posture segment)
+    _bands: dict[float, NDArray[np.float64]] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def rate_hz(self) -> float:
@@ -606,11 +609,22 @@ def _autocorrelation(seg: NDArray[np.float64]) -> NDArray[np.float64] | None:
     return ac / e * len(seg) / np.maximum(overlap, 1)
 
 
+def gait_band(sig: TrunkSignals, fs: float) -> NDArray[np.float64]:
+    """The step signal band-passed to the gait band (0.4-4 Hz) at sampling rate ``fs``, computed once per signals
+    (the segmentation, the steps' amplitudes, the standing test and every bout's pauses use it). Read-only."""
+    x = sig._bands.get(fs)
+    if x is None:
+        x = _butter(sig.step, fs, (0.4, 4.0), "band")
+        x.setflags(write=False)
+        sig._bands[fs] = x
+    return x
+
+
 def _windowed_gait(sig: TrunkSignals, s: ActivitySettings) -> tuple[NDArray, NDArray, NDArray, NDArray]:
     """Per hop: centre times, band RMS, periodicity (max normalised autocorrelation at a step or stride lag)
     and the step period in s (NaN where no rhythm)."""
     fs = s.rate_hz
-    x = _butter(sig.step, fs, (0.4, 4.0), "band")
+    x = gait_band(sig, fs)
     n = len(x)
     w = int(round(s.window_s * fs))
     hop = max(1, int(round(s.hop_s * fs)))
@@ -965,7 +979,7 @@ def _step_amplitudes(st: NDArray[np.float64], sig: TrunkSignals | None, s: Activ
     """Peak-to-peak of the gait-band step signal within +-0.3 s of each step (NaN without the signal)."""
     if sig is None or st.size == 0:
         return np.full(st.shape, np.nan)
-    x = _butter(sig.step, s.rate_hz, (0.4, 4.0), "band")
+    x = gait_band(sig, s.rate_hz)
     return _ptp_about(x, np.searchsorted(sig.t_s, st), int(round(0.3 * s.rate_hz)))
 
 
@@ -1116,7 +1130,7 @@ def _still_samples(sig: TrunkSignals, s: ActivitySettings) -> NDArray[np.bool_]:
     their 0.1 s points just before the first bout now standing. Only a spread that small: a walking trunk spreads
     far more, a still one far less."""
     fs = s.rate_hz
-    x = _butter(sig.step, fs, (0.4, 4.0), "band")
+    x = gait_band(sig, fs)
     half = max(1, int(round(0.5 * STILL_WINDOW_S * fs)))  # as _window_range sizes the spread's window
     limit = s.still_rms_deg if sig.kind == "angles" else s.still_rms_acc
     still = _running_rms(x, half) < limit
@@ -1271,7 +1285,7 @@ def quiet_intervals(
     st = np.asarray(steps_s, dtype=float)
     if st.size < 2:
         return np.zeros(0, bool)
-    x = _butter(sig.step, sig.rate_hz, (0.4, 4.0), "band")
+    x = gait_band(sig, sig.rate_hz)
     lo = np.searchsorted(sig.t_s, st[:-1] + 0.25 * np.diff(st))
     hi = np.searchsorted(sig.t_s, st[1:] - 0.25 * np.diff(st))
     rms = np.array([math.sqrt(float(np.mean(x[a:b] ** 2))) if b > a else math.nan for a, b in zip(lo, hi, strict=True)])
