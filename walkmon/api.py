@@ -1112,25 +1112,13 @@ class Session:
                         accelerometer_calibration=cal)
 
 
-def _hop_activity(text: object) -> str:
-    """A hop's activity (standing, walking, turning, unknown) from its JSON column; '' where it has none."""
-    import json  # noqa: PLC0415
-
-    if not isinstance(text, str) or not text:
-        return ""
-    try:
-        doc = json.loads(text)
-    except ValueError:
-        return ""
-    return str(doc.get("activity") or "") if isinstance(doc, dict) else ""
-
-
 def load_session(session_id: int, data_dir: str | Path | None = None) -> Session:
     """A session of the session log in ``data_dir`` (default ~/.local/share/walkmon); see :class:`Session`.
     An unknown id or a missing database raises InvalidInputError."""
     from walkmon.live.session_log import (  # noqa: PLC0415
         TABLE_COLUMNS,
         default_data_dir,
+        hop_activity,
         open_database,
         read_session_table,
         session_record,
@@ -1148,7 +1136,7 @@ def load_session(session_id: int, data_dir: str | Path | None = None) -> Session
         for name in TABLE_COLUMNS:
             cols = read_session_table(conn, int(session_id), name)
             if name == "hops":  # each hop's activity, from its JSON (as 'walkmon sessions export' gives it: review)
-                cols = {**cols, "activity": [_hop_activity(j) for j in cols.get("json", [])]}
+                cols = {**cols, "activity": [hop_activity(j) for j in cols.get("json", [])]}
             tables[name] = _structured({c: _column(v, c in _SESSION_TEXT) for c, v in cols.items()})
     finally:
         conn.close()

@@ -100,20 +100,10 @@ def _clean(col: str, values: list[Any]) -> list[Any]:
     return [math.nan if v is None else v for v in values]
 
 
-def _json_doc(text: object) -> dict:
-    """A hop's JSON column as a dict ({} for none or for text that is not a JSON object)."""
-    if not isinstance(text, str) or not text:
-        return {}
-    try:
-        doc = json.loads(text)
-    except ValueError:
-        return {}
-    return doc if isinstance(doc, dict) else {}
-
-
 def export_session(data_dir: Path, session_id: int, out_dir: Path, fmt: str = "csv") -> list[Path]:
     """Write every table of one session (+ session.json) to ``out_dir``; the written paths."""
     from walkmon.live.session_log import (  # noqa: PLC0415
+        hop_activity,
         open_database,
         read_session_table,
         session_record,
@@ -139,8 +129,7 @@ def export_session(data_dir: Path, session_id: int, out_dir: Path, fmt: str = "c
     for name, cols in tables.items():
         data = {_RENAME.get(c, c): _clean(c, v) for c, v in cols.items()}
         if name == "hops":  # the hop's activity (standing/walking/turning/unknown) lives only in its JSON
-            docs = [_json_doc(v) for v in data.pop("json", [])]
-            act = [str(d.get("activity") or "") for d in docs]
+            act = [hop_activity(v) for v in data.pop("json", [])]
             keys = list(data)
             at = keys.index("walking") + 1 if "walking" in keys else len(keys)
             data = dict([*list(data.items())[:at], ("activity", act), *list(data.items())[at:]])

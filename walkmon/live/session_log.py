@@ -45,6 +45,7 @@ __all__ = [
     "TABLE_COLUMNS",
     "SessionSummary",
     "default_data_dir",
+    "hop_activity",
     "delete_sessions",
     "list_sessions",
     "open_database",
@@ -235,6 +236,18 @@ def _create_private(path: Path) -> None:
         except FileExistsError:
             return  # another process created it meanwhile
         os.close(fd)
+
+
+def hop_activity(json_text: object) -> str:
+    """A hop's activity (standing, walking, turning, unknown) from its ``json`` column; '' where it has none (older
+    hops, or text that is not a JSON object). The export and :func:`walkmon.load_session` give it as a column."""
+    if not isinstance(json_text, str) or not json_text:
+        return ""
+    try:
+        doc = json.loads(json_text)
+    except ValueError:
+        return ""
+    return str(doc.get("activity") or "") if isinstance(doc, dict) else ""
 
 
 def check_database_usable(data_dir: str | Path) -> Path:
