@@ -217,7 +217,11 @@ class Analysis:
         """Record this analysis as a session of kind ``analyze`` in the session log (``walkmon analyze --save``);
         returns its id. ``data_dir``: the database folder (default ~/.local/share/walkmon); ``meta``: stored with
         the session."""
-        from walkmon.live.session_log import check_database_usable, default_data_dir, record_offline_session  # noqa: PLC0415
+        from walkmon.live.session_log import (  # noqa: PLC0415
+            check_database_usable,
+            default_data_dir,
+            record_offline_session,
+        )
 
         if meta is not None and not isinstance(meta, Mapping):
             msg = f"meta must be a mapping (a dict), got {type(meta).__name__}"

@@ -313,29 +313,31 @@ def imu_file_kind(path: str | Path) -> str:
     present = _header_names(path, ("gx", "gy", "gz"))
     if present and len(present) < 3:
         missing = ", ".join(c for c in ("gx", "gy", "gz") if c not in present)
-        msg = (f"{path}: gyroscope columns {', '.join(present)} but no {missing}: an IMU file needs t,gx,gy,gz,ax,ay,az "
-               "(an accelerometer alone: t,ax,ay,az)")
+        msg = (f"{path}: gyroscope columns {', '.join(present)} but no {missing}: an IMU file needs "
+               "t,gx,gy,gz,ax,ay,az (an accelerometer alone: t,ax,ay,az)")
         raise InvalidInputError(msg)
     return "acc"
+
+
+def _table_rows(path: str | Path) -> list[list[str]]:
+    """The CSV file's rows as :func:`read_table` splits them (its delimiter, comment lines)."""
+    from walkmon.safe_io import MAX_TABLE_BYTES, read_bounded  # noqa: PLC0415
+
+    text = read_bounded(path, MAX_TABLE_BYTES, "CSV table").decode("utf-8-sig", "replace")
+    return _csv_rows(Path(path), text, _delimiter(text))
 
 
 def _header_names(path: str | Path, names: Sequence[str]) -> list[str]:
     """Which of ``names`` the CSV file's header has, each read as :func:`_header_has` reads it; the file read and
     parsed once (review: once per name cost 0.4 s a name on a 30-minute accelerometer file)."""
-    from walkmon.safe_io import MAX_TABLE_BYTES, read_bounded  # noqa: PLC0415
-
-    text = read_bounded(path, MAX_TABLE_BYTES, "CSV table").decode("utf-8-sig", "replace")
-    rows = _csv_rows(Path(path), text, _delimiter(text))
+    rows = _table_rows(path)
     return [c for c in names if (h := _header(list(rows), (c,))) is not None and c in h]
 
 
 def _header_has(path: str | Path, names: Sequence[str]) -> bool:
     """The CSV file's header, read as :func:`read_table` reads it (its delimiter, comment lines, loose names:
     review, the empty-gyroscope rule missed every export but a plain comma one), names all of ``names``."""
-    from walkmon.safe_io import MAX_TABLE_BYTES, read_bounded  # noqa: PLC0415
-
-    text = read_bounded(path, MAX_TABLE_BYTES, "CSV table").decode("utf-8-sig", "replace")
-    header = _header(_csv_rows(Path(path), text, _delimiter(text)), names)
+    header = _header(_table_rows(path), names)
     return header is not None and all(c in header for c in names)
 
 

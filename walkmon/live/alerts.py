@@ -17,7 +17,8 @@ empty). Each condition
 is *raised* once it has held continuously for ``delay_s`` (default 5 s), and *cleared* once it has been back
 inside its threshold minus the hysteresis margin for ``clear_delay_s``. After a clear, the same condition is
 not raised again before ``cooldown_s``. While the wearer is not walking nothing is raised, and an active alert
-clears once the wearer has not walked (or has been back inside) for ``clear_delay_s``. Sinks that deliver events (terminal, sound, command hook) live in :mod:`walkmon.live.sinks`.
+clears once the wearer has not walked (or has been back inside) for ``clear_delay_s``. Sinks that deliver events
+(terminal, sound, command hook) live in :mod:`walkmon.live.sinks`.
 """
 
 from __future__ import annotations
@@ -193,7 +194,8 @@ class AlertStage:
                     if st.idle_since is None:
                         st.idle_since = t
                     if t - st.idle_since >= self.settings.clear_delay_s - 1e-9:
-                        events.append(self._clear(cond, st, t, value, off_thr, f"{_not_walking_why(ind)}: alert cleared"))
+                        why = f"{_not_walking_why(ind)}: alert cleared"
+                        events.append(self._clear(cond, st, t, value, off_thr, why))
                 continue
             st.idle_since = None
             if not st.active:
